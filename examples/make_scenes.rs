@@ -1,0 +1,437 @@
+//! Generates the bundled scenes in `scenes/` (run: `cargo run --example make_scenes`).
+//!
+//! Each scene is a self-contained `.gltf` with its buffer embedded as a base64 data URI,
+//! written deterministically so regeneration is reviewable as a diff of this program.
+
+use std::collections::BTreeSet;
+use std::f64::consts::PI;
+use std::path::Path;
+
+use base64::Engine;
+use serde_json::{json, Value};
+
+/// Assembles one glTF document.
+#[derive(Default)]
+struct Gltf {
+    buffer: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+    meshes: Vec<Value>,
+    materials: Vec<Value>,
+    nodes: Vec<Value>,
+    cameras: Vec<Value>,
+    lights: Vec<Value>,
+    extensions: BTreeSet<&'static str>,
+}
+
+fn bounds(points: &[[f32; 3]]) -> (Vec<f32>, Vec<f32>) {
+    let mut lo = vec![f32::INFINITY; 3];
+    let mut hi = vec![f32::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
+impl Gltf {
+    fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
+        while self.buffer.len() % 4 != 0 {
+            self.buffer.push(0);
+        }
+        let offset = self.buffer.len();
+        self.buffer.extend_from_slice(bytes);
+        self.views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target}));
+        self.views.len() - 1
+    }
+
+    fn vec3_accessor(&mut self, data: &[[f32; 3]], with_bounds: bool) -> usize {
+        let bytes: Vec<u8> = data.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+        let view = self.push_view(&bytes, 34962);
+        let mut acc = json!({"bufferView": view, "componentType": 5126, "count": data.len(), "type": "VEC3"});
+        if with_bounds {
+            let (lo, hi) = bounds(data);
+            acc["min"] = json!(lo);
+            acc["max"] = json!(hi);
+        }
+        self.accessors.push(acc);
+        self.accessors.len() - 1
+    }
+
+    fn index_accessor(&mut self, indices: &[u32]) -> usize {
+        let bytes: Vec<u8> = indices.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let view = self.push_view(&bytes, 34963);
+        self.accessors.push(json!({"bufferView": view, "componentType": 5125, "count": indices.len(), "type": "SCALAR"}));
+        self.accessors.len() - 1
+    }
+
+    fn material(&mut self, m: Value) -> usize {
+        if let Some(ext) = m.get("extensions").and_then(|e| e.as_object()) {
+            for k in ext.keys() {
+                self.extensions.insert(match k.as_str() {
+                    "KHR_materials_emissive_strength" => "KHR_materials_emissive_strength",
+                    "KHR_materials_specular" => "KHR_materials_specular",
+                    "KHR_materials_transmission" => "KHR_materials_transmission",
+                    "KHR_materials_volume" => "KHR_materials_volume",
+                    "KHR_materials_ior" => "KHR_materials_ior",
+                    other => panic!("unexpected extension {other}"),
+                });
+            }
+        }
+        self.materials.push(m);
+        self.materials.len() - 1
+    }
+
+    /// A mesh node; `normals` may be empty for flat shading.
+    fn mesh(&mut self, name: &str, mesh: &Mesh, material: usize) -> usize {
+        let pos = self.vec3_accessor(&mesh.positions, true);
+        let mut attributes = json!({"POSITION": pos});
+        if !mesh.normals.is_empty() {
+            attributes["NORMAL"] = json!(self.vec3_accessor(&mesh.normals, false));
+        }
+        let idx = self.index_accessor(&mesh.indices);
+        self.meshes.push(json!({"name": name, "primitives": [{"attributes": attributes, "indices": idx, "material": material}]}));
+        self.nodes.push(json!({"name": name, "mesh": self.meshes.len() - 1}));
+        self.nodes.len() - 1
+    }
+
+    fn perspective_camera(&mut self, name: &str, yfov: f64, translation: [f64; 3], rotation: [f64; 4]) {
+        self.cameras.push(json!({"type": "perspective", "perspective": {"yfov": yfov, "aspectRatio": 1.0, "znear": 0.01}}));
+        self.nodes.push(json!({"name": name, "camera": self.cameras.len() - 1, "translation": translation, "rotation": rotation}));
+    }
+
+    fn light(&mut self, light: Value, translation: [f64; 3], rotation: [f64; 4]) {
+        self.extensions.insert("KHR_lights_punctual");
+        self.lights.push(light);
+        let name = format!("light {}", self.lights.len() - 1);
+        self.nodes.push(json!({"name": name, "translation": translation, "rotation": rotation,
+            "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}}));
+    }
+
+    fn write(self, path: &Path, description: &str) {
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&self.buffer)
+        );
+        let mut doc = json!({
+            "asset": {"version": "2.0", "generator": "pathlight examples/make_scenes.rs", "extras": {"description": description}},
+            "scene": 0,
+            "scenes": [{"nodes": (0..self.nodes.len()).collect::<Vec<_>>()}],
+            "nodes": self.nodes,
+            "meshes": self.meshes,
+            "materials": self.materials,
+            "accessors": self.accessors,
+            "bufferViews": self.views,
+            "buffers": [{"byteLength": self.buffer.len(), "uri": uri}],
+        });
+        if !self.cameras.is_empty() {
+            doc["cameras"] = json!(self.cameras);
+        }
+        if !self.lights.is_empty() {
+            doc["extensions"] = json!({"KHR_lights_punctual": {"lights": self.lights}});
+        }
+        if !self.extensions.is_empty() {
+            doc["extensionsUsed"] = json!(self.extensions.iter().collect::<Vec<_>>());
+        }
+        let text = serde_json::to_string_pretty(&doc).unwrap() + "\n";
+        std::fs::write(path, text).unwrap();
+        println!("wrote {}", path.display());
+    }
+}
+
+/// Triangle geometry.
+#[derive(Default, Clone)]
+struct Mesh {
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    indices: Vec<u32>,
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let l = dot(a, a).sqrt();
+    [a[0] / l, a[1] / l, a[2] / l]
+}
+fn f32x3(a: [f64; 3]) -> [f32; 3] {
+    [a[0] as f32, a[1] as f32, a[2] as f32]
+}
+
+impl Mesh {
+    /// Adds a planar quad (corners in order around it), wound so its front faces `toward`:
+    /// a point the front side must see.
+    fn quad(&mut self, corners: [[f64; 3]; 4], toward: [f64; 3]) {
+        let n = cross(sub(corners[1], corners[0]), sub(corners[2], corners[0]));
+        let center = [0, 1, 2].map(|k| corners.iter().map(|c| c[k]).sum::<f64>() / 4.0);
+        let c = if dot(n, sub(toward, center)) >= 0.0 {
+            corners
+        } else {
+            [corners[3], corners[2], corners[1], corners[0]]
+        };
+        let base = self.positions.len() as u32;
+        self.positions.extend(c.iter().map(|p| f32x3(*p)));
+        self.indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+
+    /// A geodesic sphere: an icosahedron subdivided `level` times, projected onto the
+    /// sphere. Faces point outward, or inward with `inward`; smooth normals if `smooth`.
+    fn icosphere(center: [f64; 3], radius: f64, level: u32, inward: bool, smooth: bool) -> Mesh {
+        let t = (1.0 + 5f64.sqrt()) / 2.0;
+        let mut verts: Vec<[f64; 3]> = [
+            [-1.0, t, 0.0], [1.0, t, 0.0], [-1.0, -t, 0.0], [1.0, -t, 0.0],
+            [0.0, -1.0, t], [0.0, 1.0, t], [0.0, -1.0, -t], [0.0, 1.0, -t],
+            [t, 0.0, -1.0], [t, 0.0, 1.0], [-t, 0.0, -1.0], [-t, 0.0, 1.0],
+        ]
+        .iter()
+        .map(|v| normalize(*v))
+        .collect();
+        let mut faces: Vec<[u32; 3]> = vec![
+            [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+            [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+            [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+        ];
+        for _ in 0..level {
+            let mut cache = std::collections::HashMap::new();
+            let mut mid = |a: u32, b: u32, verts: &mut Vec<[f64; 3]>| -> u32 {
+                *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    let (va, vb) = (verts[a as usize], verts[b as usize]);
+                    verts.push(normalize([(va[0] + vb[0]) / 2.0, (va[1] + vb[1]) / 2.0, (va[2] + vb[2]) / 2.0]));
+                    verts.len() as u32 - 1
+                })
+            };
+            let mut next = Vec::with_capacity(faces.len() * 4);
+            for [a, b, c] in faces {
+                let ab = mid(a, b, &mut verts);
+                let bc = mid(b, c, &mut verts);
+                let ca = mid(c, a, &mut verts);
+                next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+            }
+            faces = next;
+        }
+        let mut mesh = Mesh {
+            positions: verts.iter().map(|v| f32x3([center[0] + radius * v[0], center[1] + radius * v[1], center[2] + radius * v[2]])).collect(),
+            ..Mesh::default()
+        };
+        if smooth {
+            mesh.normals = verts.iter().map(|v| f32x3(if inward { [-v[0], -v[1], -v[2]] } else { *v })).collect();
+        }
+        for [a, b, c] in faces {
+            mesh.indices.extend(if inward { [a, c, b] } else { [a, b, c] });
+        }
+        mesh
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Materials
+
+fn lambert(name: &str, rgb: [f64; 3]) -> Value {
+    json!({"name": name,
+        "pbrMetallicRoughness": {"baseColorFactor": [rgb[0], rgb[1], rgb[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+        "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}})
+}
+
+fn emitter(name: &str, radiance: [f64; 3], reflectance: f64) -> Value {
+    let strength = radiance.iter().cloned().fold(0.0, f64::max);
+    let mut m = lambert(name, [reflectance; 3]);
+    m["emissiveFactor"] = json!(radiance.map(|r| r / strength));
+    m["extensions"]["KHR_materials_emissive_strength"] = json!({"emissiveStrength": strength});
+    m
+}
+
+fn metal(name: &str, rgb: [f64; 3], roughness: f64) -> Value {
+    json!({"name": name, "pbrMetallicRoughness": {"baseColorFactor": [rgb[0], rgb[1], rgb[2], 1.0], "metallicFactor": 1.0, "roughnessFactor": roughness}})
+}
+
+fn plastic(name: &str, rgb: [f64; 3], roughness: f64) -> Value {
+    json!({"name": name, "pbrMetallicRoughness": {"baseColorFactor": [rgb[0], rgb[1], rgb[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": roughness}})
+}
+
+/// Glass: a refracting solid with absorption when `attenuation` is given, else thin-walled.
+fn glass(name: &str, roughness: f64, attenuation: Option<([f64; 3], f64)>) -> Value {
+    let mut m = json!({"name": name,
+        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": roughness},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5}}});
+    if let Some((color, distance)) = attenuation {
+        m["extensions"]["KHR_materials_volume"] =
+            json!({"thicknessFactor": 0.1, "attenuationColor": color, "attenuationDistance": distance});
+    }
+    m
+}
+
+// ---------------------------------------------------------------------------------------
+// Scenes
+
+/// glTF rotation (x, y, z, w) of `angle` radians about +Y.
+fn rot_y(angle: f64) -> [f64; 4] {
+    [0.0, (angle / 2.0).sin(), 0.0, (angle / 2.0).cos()]
+}
+
+/// The Cornell box from the measured data published by the Cornell Program of Computer
+/// Graphics (https://www.graphics.cornell.edu/online/box/data.html), converted from
+/// millimetres to metres. The coordinate frame is the data's own: +Y up, the camera at
+/// z = −0.8 looking down +Z, so +X is to the viewer's left (red wall). The light quad sits
+/// 0.5 mm under the ceiling so it does not coincide with it. Reflectances are the usual RGB
+/// fits of the measured spectra (as in the pbrt-v4 and Mitsuba scenes); the light's radiance
+/// (17, 12, 4) likewise.
+///
+/// `with_blocks` keeps the two boxes; scenes that put other objects in the room omit them.
+fn cornell(g: &mut Gltf, with_blocks: bool) {
+    let mm = |p: [f64; 3]| [p[0] / 1000.0, p[1] / 1000.0, p[2] / 1000.0];
+    let inside = mm([278.0, 274.4, 279.6]);
+    let white = g.material(lambert("white", [0.725, 0.71, 0.68]));
+    let red = g.material(lambert("red", [0.63, 0.065, 0.05]));
+    let green = g.material(lambert("green", [0.14, 0.45, 0.091]));
+    let light = g.material(emitter("light", [17.0, 12.0, 4.0], 0.78));
+
+    let mut walls = Mesh::default();
+    let quads = [
+        // floor, ceiling, back wall
+        [[552.8, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 559.2], [549.6, 0.0, 559.2]],
+        [[556.0, 548.8, 0.0], [556.0, 548.8, 559.2], [0.0, 548.8, 559.2], [0.0, 548.8, 0.0]],
+        [[549.6, 0.0, 559.2], [0.0, 0.0, 559.2], [0.0, 548.8, 559.2], [556.0, 548.8, 559.2]],
+    ];
+    for q in quads {
+        walls.quad(q.map(mm), inside);
+    }
+    g.mesh("white walls", &walls, white);
+    let mut left = Mesh::default();
+    left.quad([[552.8, 0.0, 0.0], [549.6, 0.0, 559.2], [556.0, 548.8, 559.2], [556.0, 548.8, 0.0]].map(mm), inside);
+    g.mesh("red wall", &left, red);
+    let mut right = Mesh::default();
+    right.quad([[0.0, 0.0, 559.2], [0.0, 0.0, 0.0], [0.0, 548.8, 0.0], [0.0, 548.8, 559.2]].map(mm), inside);
+    g.mesh("green wall", &right, green);
+    let mut lamp = Mesh::default();
+    lamp.quad([[343.0, 548.3, 227.0], [343.0, 548.3, 332.0], [213.0, 548.3, 332.0], [213.0, 548.3, 227.0]].map(mm), mm([278.0, 0.0, 279.6]));
+    g.mesh("light", &lamp, light);
+
+    if with_blocks {
+        let mut blocks = Mesh::default();
+        let short: [[[f64; 3]; 4]; 5] = [
+            [[130.0, 165.0, 65.0], [82.0, 165.0, 225.0], [240.0, 165.0, 272.0], [290.0, 165.0, 114.0]],
+            [[290.0, 0.0, 114.0], [290.0, 165.0, 114.0], [240.0, 165.0, 272.0], [240.0, 0.0, 272.0]],
+            [[130.0, 0.0, 65.0], [130.0, 165.0, 65.0], [290.0, 165.0, 114.0], [290.0, 0.0, 114.0]],
+            [[82.0, 0.0, 225.0], [82.0, 165.0, 225.0], [130.0, 165.0, 65.0], [130.0, 0.0, 65.0]],
+            [[240.0, 0.0, 272.0], [240.0, 165.0, 272.0], [82.0, 165.0, 225.0], [82.0, 0.0, 225.0]],
+        ];
+        let tall: [[[f64; 3]; 4]; 5] = [
+            [[423.0, 330.0, 247.0], [265.0, 330.0, 296.0], [314.0, 330.0, 456.0], [472.0, 330.0, 406.0]],
+            [[423.0, 0.0, 247.0], [423.0, 330.0, 247.0], [472.0, 330.0, 406.0], [472.0, 0.0, 406.0]],
+            [[472.0, 0.0, 406.0], [472.0, 330.0, 406.0], [314.0, 330.0, 456.0], [314.0, 0.0, 456.0]],
+            [[314.0, 0.0, 456.0], [314.0, 330.0, 456.0], [265.0, 330.0, 296.0], [265.0, 0.0, 296.0]],
+            [[265.0, 0.0, 296.0], [265.0, 330.0, 296.0], [423.0, 330.0, 247.0], [423.0, 0.0, 247.0]],
+        ];
+        for (faces, center) in [(short, [185.0, 82.5, 168.5]), (tall, [368.5, 165.0, 351.25])] {
+            for q in faces {
+                // Outward: away from the block's centre.
+                let q = q.map(mm);
+                let c = mm(center);
+                let qc = [0, 1, 2].map(|k| q.iter().map(|p| p[k]).sum::<f64>() / 4.0);
+                let away = [2.0 * qc[0] - c[0], 2.0 * qc[1] - c[1], 2.0 * qc[2] - c[2]];
+                blocks.quad(q, away);
+            }
+        }
+        g.mesh("blocks", &blocks, white);
+    }
+    // 35 mm focal length on a 25 mm film: yfov = 2·atan(12.5 / 35).
+    let yfov = 2.0 * (12.5f64 / 35.0).atan();
+    g.perspective_camera("camera", yfov, [0.278, 0.273, -0.8], rot_y(PI));
+}
+
+fn furnace(path: &Path, albedo: f64) {
+    let mut g = Gltf::default();
+    let mut m = lambert("furnace", [albedo; 3]);
+    m["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    let mat = g.material(m);
+    // Inward-facing, flat-shaded, one-sided emitter: the camera inside sees front faces.
+    let sphere = Mesh::icosphere([0.0; 3], 1.0, 3, true, false);
+    g.mesh("sphere", &sphere, mat);
+    g.perspective_camera("camera", 60f64.to_radians(), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
+    g.write(
+        path,
+        &format!(
+            "Furnace: the camera inside a closed sphere of Lambertian albedo {albedo} whose inside emits radiance 1; every pixel's exact value is 1/(1 - {albedo}) = {}",
+            1.0 / (1.0 - albedo)
+        ),
+    );
+}
+
+fn main() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::create_dir_all(&dir).unwrap();
+
+    let mut g = Gltf::default();
+    cornell(&mut g, true);
+    g.write(&dir.join("cornell-box.gltf"), "The Cornell box (measured geometry), diffuse walls, area light under the ceiling");
+
+    furnace(&dir.join("furnace-0.5.gltf"), 0.5);
+    furnace(&dir.join("furnace-0.9.gltf"), 0.9);
+
+    // Glossy metal: rough gold and a polished (roughness 0, delta) silver sphere, and a
+    // glossy dielectric (plastic) sphere with its diffuse base, in the Cornell room.
+    let mut g = Gltf::default();
+    cornell(&mut g, false);
+    let gold = g.material(metal("rough gold", [1.0, 0.71, 0.29], 0.35));
+    let silver = g.material(metal("polished silver", [0.95, 0.93, 0.88], 0.0));
+    let blue = g.material(plastic("glossy blue plastic", [0.1, 0.2, 0.6], 0.25));
+    g.mesh("gold sphere", &Mesh::icosphere([0.39, 0.1, 0.35], 0.1, 3, false, true), gold);
+    g.mesh("silver sphere", &Mesh::icosphere([0.17, 0.1, 0.25], 0.1, 3, false, true), silver);
+    g.mesh("plastic sphere", &Mesh::icosphere([0.28, 0.3, 0.42], 0.08, 3, false, true), blue);
+    g.write(&dir.join("glossy-metal.gltf"), "Rough and polished metal and glossy plastic spheres in the Cornell room");
+
+    // Smooth glass: a refracting solid sphere with Beer–Lambert absorption, and a thin-walled
+    // pane, both perfectly smooth (delta lobes).
+    let mut g = Gltf::default();
+    cornell(&mut g, false);
+    let solid = g.material(glass("smooth glass (solid, tinted)", 0.0, Some(([0.85, 0.95, 1.0], 0.1))));
+    let thin = g.material(glass("smooth glass (thin-walled)", 0.0, None));
+    g.mesh("glass sphere", &Mesh::icosphere([0.3, 0.13, 0.3], 0.13, 3, false, true), solid);
+    let mut pane = Mesh::default();
+    pane.quad([[0.08, 0.0, 0.45], [0.2, 0.0, 0.45], [0.2, 0.3, 0.45], [0.08, 0.3, 0.45]], [0.14, 0.15, -1.0]);
+    g.mesh("glass pane", &pane, thin);
+    g.write(&dir.join("glass-smooth.gltf"), "Smooth glass: a tinted refracting sphere and a thin-walled pane in the Cornell room");
+
+    // Rough glass: the same objects frosted.
+    let mut g = Gltf::default();
+    cornell(&mut g, false);
+    let solid = g.material(glass("rough glass (solid)", 0.3, Some(([0.9, 0.9, 1.0], 0.2))));
+    let thin = g.material(glass("rough glass (thin-walled)", 0.45, None));
+    g.mesh("glass sphere", &Mesh::icosphere([0.3, 0.13, 0.3], 0.13, 3, false, true), solid);
+    let mut pane = Mesh::default();
+    pane.quad([[0.08, 0.0, 0.45], [0.2, 0.0, 0.45], [0.2, 0.3, 0.45], [0.08, 0.3, 0.45]], [0.14, 0.15, -1.0]);
+    g.mesh("glass pane", &pane, thin);
+    g.write(&dir.join("glass-rough.gltf"), "Rough glass: a frosted refracting sphere and a frosted thin pane in the Cornell room");
+
+    // Punctual lights only: point, spot and directional lights over a floor and wall.
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white", [0.8, 0.8, 0.8]));
+    let red = g.material(plastic("red plastic", [0.7, 0.1, 0.1], 0.3));
+    let steel = g.material(metal("brushed steel", [0.6, 0.6, 0.62], 0.25));
+    let mut room = Mesh::default();
+    room.quad([[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]], [0.0, 1.0, 0.0]);
+    room.quad([[-2.0, 0.0, -1.0], [2.0, 0.0, -1.0], [2.0, 2.0, -1.0], [-2.0, 2.0, -1.0]], [0.0, 1.0, 0.0]);
+    g.mesh("floor and wall", &room, white);
+    g.mesh("red sphere", &Mesh::icosphere([-0.45, 0.35, 0.0], 0.35, 3, false, true), red);
+    g.mesh("steel sphere", &Mesh::icosphere([0.45, 0.3, 0.2], 0.3, 3, false, true), steel);
+    g.light(json!({"type": "point", "color": [1.0, 0.9, 0.8], "intensity": 2.0}), [0.0, 1.4, 0.8], [0.0, 0.0, 0.0, 1.0]);
+    // Spot pointing straight down (−Z rotated to −Y: +90° about X).
+    let h = (PI / 4.0).sin();
+    g.light(
+        json!({"type": "spot", "color": [0.6, 0.8, 1.0], "intensity": 6.0, "spot": {"innerConeAngle": 0.25, "outerConeAngle": 0.5}}),
+        [0.45, 1.8, 0.2],
+        [-h, 0.0, 0.0, h],
+    );
+    // Directional light from the upper left, travelling down and back.
+    g.light(json!({"type": "directional", "color": [1.0, 1.0, 1.0], "intensity": 0.5}), [0.0, 0.0, 0.0], [-0.3, -0.3, 0.0, 0.905_538_5]);
+    g.perspective_camera("camera", 45f64.to_radians(), [0.0, 0.9, 2.6], [-0.12, 0.0, 0.0, 0.992_774_4]);
+    g.write(&dir.join("punctual.gltf"), "Point, spot and directional lights only (no emissive surfaces)");
+}

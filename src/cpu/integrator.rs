@@ -1,0 +1,214 @@
+//! Unidirectional path tracing with next-event estimation and multiple importance sampling
+//! (Veach 1997, ch. 9; pbrt-v4 `PathIntegrator`).
+//!
+//! WGSL twin: `shaders/integrator.wgsl` (same function names and the same order of random
+//! numbers, so that one seed gives the same paths on both backends up to rounding).
+//!
+//! Bounce semantics, shared by both backends: depth 0 is the camera ray; `depth` counts the
+//! scattering events a path has had. Emission seen directly (depth 0) is always counted.
+//! `max_depth` = D allows paths with at most D scattering events: D = 0 renders only
+//! emitters seen directly, D = 1 direct lighting.
+
+use glam::Vec3;
+
+use crate::bsdf::GltfBsdf;
+use crate::bvh::{intersect_any, intersect_closest, ClosestHit};
+use crate::geometry::{spawn_ray, triangle_error_bound, Frame, Ray};
+use crate::gpu::layout::{FirstHit, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, TRIANGLE_HAS_NORMALS};
+use crate::light::{sample_light, triangle_light_pdf};
+use crate::sampling::{power_heuristic, Rng};
+use crate::scene::{oct_decode, FlatScene};
+
+/// A hard stop against runaway paths (e.g. a non-finite throughput that defeats Russian
+/// roulette). Roulette survival is at most 0.95 per bounce, so a path reaching this many
+/// bounces carries at most 0.95^(1024 − rr_min_depth) ≈ 1e-23 of its weight: unreachable in
+/// practice, and the truncation it introduces is far below any test's resolution.
+pub const MAX_BOUNCES_GUARD: u32 = 1024;
+
+/// Roulette survival probability is the path throughput's largest component, at most this.
+pub const RR_MAX_SURVIVAL: f32 = 0.95;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IntegratorSettings {
+    /// Most scattering events (`u32::MAX`: unlimited).
+    pub max_depth: u32,
+    /// Russian roulette starts once a path has this many scattering events.
+    pub rr_min_depth: u32,
+}
+
+impl Default for IntegratorSettings {
+    fn default() -> Self {
+        IntegratorSettings {
+            max_depth: u32::MAX,
+            rr_min_depth: 3,
+        }
+    }
+}
+
+/// Everything about a ray's hit the integrator needs.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceInteraction {
+    pub p: Vec3,
+    /// Conservative absolute error of `p`.
+    pub p_error: Vec3,
+    /// Unit geometric normal from the winding (front face side).
+    pub n_geometric: Vec3,
+    /// Shading frame, flipped to face the incoming ray.
+    pub frame: Frame,
+    /// Outgoing direction (towards the ray origin) in the shading frame; `wo.z > 0` unless
+    /// the hit is exactly edge-on.
+    pub wo: Vec3,
+    /// Did the ray arrive on the geometric front side?
+    pub front_face: bool,
+    pub material: u32,
+    pub emitter: u32,
+    /// Distance along the ray (unit direction).
+    pub distance: f32,
+}
+
+/// Builds the interaction for `hit` of `ray` (`ray.direction` unit length).
+pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> SurfaceInteraction {
+    let tri = &scene.triangles[hit.triangle as usize];
+    let (p0, p1, p2) = (Vec3::from(tri.p0), Vec3::from(tri.p1), Vec3::from(tri.p2));
+    let h = &hit.hit;
+    let p = h.b0 * p0 + h.b1 * p1 + h.b2 * p2;
+    let p_error = triangle_error_bound(h, p0, p1, p2);
+    let n_geometric = (p1 - p0).cross(p2 - p0).normalize();
+    let wo_world = -ray.direction;
+    let front_face = wo_world.dot(n_geometric) > 0.0;
+    let ng_facing = if front_face { n_geometric } else { -n_geometric };
+    let mut ns = ng_facing;
+    if tri.flags & TRIANGLE_HAS_NORMALS != 0 {
+        let n = &scene.normals[hit.triangle as usize];
+        let interpolated = h.b0 * oct_decode(n.n0) + h.b1 * oct_decode(n.n1) + h.b2 * oct_decode(n.n2);
+        if let Some(mut s) = interpolated.try_normalize() {
+            // Put the shading normal on the geometric normal's side (the file's normals may
+            // disagree with its winding) ...
+            if s.dot(ng_facing) < 0.0 {
+                s = -s;
+            }
+            // ... and fall back to the geometric normal where interpolation would put the
+            // viewer below the shading hemisphere (silhouettes of coarse meshes).
+            if s.dot(wo_world) > 0.0 {
+                ns = s;
+            }
+        }
+    }
+    let frame = Frame::from_z(ns);
+    SurfaceInteraction {
+        p,
+        p_error,
+        n_geometric,
+        frame,
+        wo: frame.to_local(wo_world),
+        front_face,
+        material: tri.material,
+        emitter: tri.emitter,
+        distance: h.t,
+    }
+}
+
+/// One path's radiance estimate along camera ray `ray` (unit direction).
+pub fn radiance(scene: &FlatScene, settings: &IntegratorSettings, mut ray: Ray, rng: &mut Rng) -> Vec3 {
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut depth = 0u32;
+    let mut prev_delta = true;
+    let mut prev_pdf = 0.0f32;
+    loop {
+        let Some(hit) = intersect_closest(&scene.nodes, &scene.triangles, &ray) else { break };
+        let si = surface_interaction(scene, &ray, &hit);
+        let material = &scene.materials[si.material as usize];
+
+        // Beer–Lambert absorption inside a refracting solid: a ray reaching a back face has
+        // travelled through the medium (closed, outward-facing meshes, as KHR_materials_volume
+        // requires).
+        if material.flags & MATERIAL_VOLUME != 0 && !si.front_face {
+            let sigma = Vec3::from(material.attenuation_coefficient);
+            beta *= (-sigma * si.distance).exp();
+        }
+
+        // Emission, one-sided unless the material is double-sided.
+        let emission = Vec3::from(material.emission);
+        if emission.max_element() > 0.0 && (si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0) {
+            if depth == 0 || prev_delta || si.emitter == INVALID_INDEX {
+                l += beta * emission;
+            } else {
+                let light = &scene.lights[si.emitter as usize];
+                let tri = &scene.triangles[hit.triangle as usize];
+                let light_pdf = triangle_light_pdf(light, tri, ray.origin, si.p);
+                l += beta * emission * power_heuristic(prev_pdf, light_pdf);
+            }
+        }
+
+        if depth >= settings.max_depth || depth >= MAX_BOUNCES_GUARD {
+            break;
+        }
+        let bsdf = GltfBsdf::new(material, si.wo.z, si.front_face);
+
+        // Next-event estimation.
+        if bsdf.has_non_delta() && !scene.lights.is_empty() {
+            let u_select = rng.next_2d();
+            let u_light = rng.next_2d();
+            if let Some(ls) = sample_light(scene.light_arrays(), si.p, si.p_error, si.n_geometric, u_select, u_light) {
+                let wi = si.frame.to_local(ls.wi);
+                let f = bsdf.eval(si.wo, wi);
+                if f.max_element() > 0.0 && !intersect_any(&scene.nodes, &scene.triangles, &ls.shadow_ray) {
+                    let contribution = beta * f * wi.z.abs() * ls.radiance;
+                    if ls.is_delta {
+                        l += contribution / ls.pdf;
+                    } else {
+                        let w = power_heuristic(ls.pdf, bsdf.pdf(si.wo, wi));
+                        l += contribution * w / ls.pdf;
+                    }
+                }
+            }
+        }
+
+        // Continue the path by sampling the BSDF.
+        let u_lobe = rng.next_1d();
+        let u_dir = rng.next_2d();
+        let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { break };
+        beta *= bs.weight;
+        prev_delta = bs.is_delta;
+        prev_pdf = bs.pdf_solid_angle;
+        depth += 1;
+        let wi_world = si.frame.from_local(bs.wi).normalize();
+        ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
+
+        // Russian roulette (unbiased: survivors are divided by the survival probability).
+        if depth >= settings.rr_min_depth {
+            let q = beta.max_element().min(RR_MAX_SURVIVAL);
+            if !(q > 0.0) || rng.next_1d() >= q {
+                break;
+            }
+            beta /= q;
+        }
+        if !beta.is_finite() {
+            // Poison the sample so the film counts and rejects it.
+            return Vec3::splat(f32::NAN);
+        }
+    }
+    l
+}
+
+/// What the camera ray of sample 0 of pixel `(x, y)` hits (the first-hit AOV).
+pub fn first_hit(scene: &FlatScene, width: u32, height: u32, x: u32, y: u32, seed: u32) -> FirstHit {
+    let mut rng = Rng::new(x, y, 0, seed);
+    let ray = crate::scene::camera::generate_camera_ray(&scene.camera, width, height, x, y, rng.next_2d());
+    match intersect_closest(&scene.nodes, &scene.triangles, &ray) {
+        Some(hit) => {
+            let si = surface_interaction(scene, &ray, &hit);
+            FirstHit {
+                normal: si.frame.z.to_array(),
+                distance: si.distance,
+                albedo: scene.materials[si.material as usize].base_color,
+                triangle: hit.triangle,
+            }
+        }
+        None => FirstHit {
+            triangle: INVALID_INDEX,
+            ..Default::default()
+        },
+    }
+}

@@ -1,0 +1,9 @@
+//! The CPU reference renderer: the oracle the GPU kernel is checked against. It renders from
+//! the same [`FlatScene`](crate::scene::FlatScene) arrays with the same algorithm, in plain
+//! Rust over rayon.
+
+mod integrator;
+mod renderer;
+
+pub use integrator::{first_hit, radiance, surface_interaction, IntegratorSettings, SurfaceInteraction, MAX_BOUNCES_GUARD};
+pub use renderer::CpuBackend;

@@ -1,0 +1,107 @@
+//! OpenEXR output: linear radiance with its own error bars.
+//!
+//! Channels `R`, `G`, `B` hold the per-pixel mean and `variance.R`, `variance.G`,
+//! `variance.B` the estimated variance of that mean (sample variance / n), all f32. Header
+//! attributes record how the image was made (`pathlight.*`).
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use exr::prelude::*;
+
+use super::{write_atomically, Film};
+use crate::error::{Error, Result};
+
+/// How an image was rendered, stored in its EXR header.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderMetadata {
+    pub scene: String,
+    pub backend: String,
+    /// Samples per pixel completed.
+    pub spp: u32,
+    pub seed: u32,
+    /// `None`: unlimited (Russian roulette ends paths).
+    pub max_depth: Option<u32>,
+    pub render_seconds: f64,
+    /// Non-finite samples dropped.
+    pub rejected_samples: u64,
+}
+
+pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> {
+    let size = (film.width as usize, film.height as usize);
+    let mean = film.mean();
+    let var = film.variance_of_mean();
+    let channel = |name: &str, data: Vec<f32>| AnyChannel::new(name, FlatSamples::F32(data));
+    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+        channel("R", mean.iter().map(|c| c.x).collect()),
+        channel("G", mean.iter().map(|c| c.y).collect()),
+        channel("B", mean.iter().map(|c| c.z).collect()),
+        channel("variance.R", var.iter().map(|c| c.x).collect()),
+        channel("variance.G", var.iter().map(|c| c.y).collect()),
+        channel("variance.B", var.iter().map(|c| c.z).collect()),
+    ]));
+    let mut attributes = LayerAttributes::default();
+    attributes.software_name = Some(Text::from(concat!("pathlight ", env!("CARGO_PKG_VERSION"))));
+    let mut put = |k: &str, v: AttributeValue| {
+        attributes.other.insert(Text::from(k), v);
+    };
+    put("pathlight.spp", AttributeValue::I32(meta.spp as i32));
+    put("pathlight.seed", AttributeValue::Text(Text::from(meta.seed.to_string().as_str())));
+    put("pathlight.backend", AttributeValue::Text(Text::from(meta.backend.as_str())));
+    put("pathlight.renderSeconds", AttributeValue::F64(meta.render_seconds));
+    put("pathlight.rejectedSamples", AttributeValue::Text(Text::from(meta.rejected_samples.to_string().as_str())));
+    put(
+        "pathlight.maxDepth",
+        AttributeValue::Text(Text::from(meta.max_depth.map(|d| d.to_string()).unwrap_or_else(|| "unlimited".into()).as_str())),
+    );
+    put("pathlight.scene", AttributeValue::Text(Text::from(meta.scene.as_str())));
+    let layer = Layer::new(size, attributes, Encoding::FAST_LOSSLESS, channels);
+    let image = Image::from_layer(layer);
+    write_atomically(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| Error::output(path, format!("cannot write EXR: {e}")))
+    })
+}
+
+/// An EXR read back: every channel as f32, every attribute as text.
+#[derive(Clone, Debug)]
+pub struct ExrImage {
+    pub width: usize,
+    pub height: usize,
+    pub channels: HashMap<String, Vec<f32>>,
+    pub attributes: HashMap<String, String>,
+}
+
+pub fn read_exr(path: &Path) -> Result<ExrImage> {
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| Error::output(path, format!("cannot read EXR: {e}")))?;
+    let layer = &image.layer_data;
+    let mut attributes = HashMap::new();
+    for (k, v) in layer.attributes.other.iter().chain(image.attributes.other.iter()) {
+        let text = match v {
+            AttributeValue::Text(t) => t.to_string(),
+            AttributeValue::I32(i) => i.to_string(),
+            AttributeValue::F32(f) => f.to_string(),
+            AttributeValue::F64(f) => f.to_string(),
+            other => format!("{other:?}"),
+        };
+        attributes.insert(k.to_string(), text);
+    }
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    Ok(ExrImage {
+        width: layer.size.width(),
+        height: layer.size.height(),
+        channels,
+        attributes,
+    })
+}

@@ -1,0 +1,126 @@
+//! The film: per-pixel running mean and variance, and image output.
+//!
+//! WGSL twin of the accumulation: `film_add_sample` in `shaders/film.wgsl`.
+
+mod exr_io;
+mod png_io;
+mod tonemap;
+
+use glam::Vec3;
+
+pub use exr_io::{read_exr, write_exr, ExrImage, RenderMetadata};
+pub use png_io::write_png;
+pub use tonemap::{linear_to_srgb, Tonemap};
+
+use crate::gpu::layout::FilmPixel;
+
+/// Adds one sample to a pixel by Welford's update (Welford 1962): stable in f32 for millions
+/// of samples because it accumulates deviations from the running mean, not raw sums.
+/// Non-finite samples are never accumulated; they are counted in `rejected`.
+pub fn film_add_sample(p: &mut FilmPixel, x: Vec3) {
+    if !x.is_finite() {
+        p.rejected += 1;
+        return;
+    }
+    p.count += 1;
+    let n = p.count as f32;
+    let mean = Vec3::from(p.mean);
+    let delta = x - mean;
+    let mean = mean + delta / n;
+    let m2 = Vec3::from(p.m2) + delta * (x - mean);
+    p.mean = mean.to_array();
+    p.m2 = m2.to_array();
+}
+
+/// An image being accumulated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first.
+    pub pixels: Vec<FilmPixel>,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32) -> Film {
+        Film {
+            width,
+            height,
+            pixels: vec![FilmPixel::default(); width as usize * height as usize],
+        }
+    }
+
+    pub fn pixel(&self, x: u32, y: u32) -> &FilmPixel {
+        &self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Mean radiance per pixel.
+    pub fn mean(&self) -> Vec<Vec3> {
+        self.pixels.iter().map(|p| Vec3::from(p.mean)).collect()
+    }
+
+    /// Estimated variance of each pixel's mean: sample variance / n = M2 / ((n − 1) n).
+    /// Zero where fewer than two samples were taken (no estimate exists).
+    pub fn variance_of_mean(&self) -> Vec<Vec3> {
+        self.pixels
+            .iter()
+            .map(|p| {
+                if p.count < 2 {
+                    Vec3::ZERO
+                } else {
+                    let n = p.count as f32;
+                    Vec3::from(p.m2) / ((n - 1.0) * n)
+                }
+            })
+            .collect()
+    }
+
+    /// Samples accumulated over all pixels.
+    pub fn total_samples(&self) -> u64 {
+        self.pixels.iter().map(|p| p.count as u64).sum()
+    }
+
+    /// Non-finite samples dropped over all pixels.
+    pub fn total_rejected(&self) -> u64 {
+        self.pixels.iter().map(|p| p.rejected as u64).sum()
+    }
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file beside it, then a rename, so a
+/// reader never sees a half-written image and an old image survives a failed write.
+pub fn write_atomically(path: &std::path::Path, write: impl FnOnce(&std::path::Path) -> crate::Result<()>) -> crate::Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let result = write(&tmp).and_then(|_| std::fs::rename(&tmp, path).map_err(|e| crate::Error::io(path, e)));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn welford_matches_two_pass_statistics() {
+        let mut p = FilmPixel::default();
+        let xs: Vec<f32> = (0..1000).map(|i| 1000.0 + (i as f32 * 0.37).sin()).collect();
+        for &x in &xs {
+            film_add_sample(&mut p, Vec3::splat(x));
+        }
+        film_add_sample(&mut p, Vec3::new(f32::NAN, 0.0, 0.0));
+        film_add_sample(&mut p, Vec3::splat(f32::INFINITY));
+        let n = xs.len() as f64;
+        let mean = xs.iter().map(|&x| x as f64).sum::<f64>() / n;
+        let m2: f64 = xs.iter().map(|&x| (x as f64 - mean).powi(2)).sum();
+        assert_eq!(p.count, 1000);
+        assert_eq!(p.rejected, 2);
+        // f32 Welford keeps the mean to a few ulps of 1000 (≈ 6e-5 each) ...
+        assert!((p.mean[0] as f64 - mean).abs() < 1e-3);
+        // ... and M2 (≈ 500 here) to well under a percent, where the naive Σx² − n·mean²
+        // in f32 would lose every digit (Σx² ≈ 1e9, ulp 64).
+        assert!((p.m2[0] as f64 - m2).abs() / m2 < 1e-3, "{} vs {m2}", p.m2[0]);
+    }
+}

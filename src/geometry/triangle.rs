@@ -1,0 +1,118 @@
+//! The watertight ray–triangle test (Woop, Benthin & Wald 2013, "Watertight Ray/Triangle
+//! Intersection", JCGT 2(1)), with pbrt-v4's conservative `t > 0` test (§6.8.7).
+
+use glam::Vec3;
+
+use super::float::{difference_of_products, gamma};
+use super::ray::Ray;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    /// Barycentric weights of p0, p1, p2.
+    pub b0: f32,
+    pub b1: f32,
+    pub b2: f32,
+    pub t: f32,
+}
+
+fn max_dimension(v: Vec3) -> usize {
+    if v.x > v.y {
+        if v.x > v.z {
+            0
+        } else {
+            2
+        }
+    } else if v.y > v.z {
+        1
+    } else {
+        2
+    }
+}
+
+fn permute(v: Vec3, x: usize, y: usize, z: usize) -> Vec3 {
+    Vec3::new(v[x], v[y], v[z])
+}
+
+/// Intersects `ray` with triangle `p0 p1 p2` within `(0, ray.t_max)`.
+///
+/// Watertight: a ray through a shared edge or vertex hits at least one of the triangles
+/// sharing it (edge functions of exactly 0 count as inside). Unlike pbrt-v4 this does not
+/// re-evaluate zero edge functions in f64, because WGSL has no portable f64; that only ever
+/// turns a miss into an edge hit, never the reverse.
+pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<TriangleHit> {
+    // Degenerate triangles have no surface to hit.
+    if (p2 - p0).cross(p1 - p0).length_squared() == 0.0 {
+        return None;
+    }
+    // Translate to the ray origin, permute so the ray's dominant axis is z, shear so the ray
+    // becomes +z.
+    let mut p0t = p0 - ray.origin;
+    let mut p1t = p1 - ray.origin;
+    let mut p2t = p2 - ray.origin;
+    let kz = max_dimension(ray.direction.abs());
+    let kx = if kz == 2 { 0 } else { kz + 1 };
+    let ky = if kx == 2 { 0 } else { kx + 1 };
+    let d = permute(ray.direction, kx, ky, kz);
+    p0t = permute(p0t, kx, ky, kz);
+    p1t = permute(p1t, kx, ky, kz);
+    p2t = permute(p2t, kx, ky, kz);
+    let sx = -d.x / d.z;
+    let sy = -d.y / d.z;
+    let sz = 1.0 / d.z;
+    p0t.x += sx * p0t.z;
+    p0t.y += sy * p0t.z;
+    p1t.x += sx * p1t.z;
+    p1t.y += sy * p1t.z;
+    p2t.x += sx * p2t.z;
+    p2t.y += sy * p2t.z;
+
+    // Edge functions.
+    let e0 = difference_of_products(p1t.x, p2t.y, p1t.y, p2t.x);
+    let e1 = difference_of_products(p2t.x, p0t.y, p2t.y, p0t.x);
+    let e2 = difference_of_products(p0t.x, p1t.y, p0t.y, p1t.x);
+    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+        return None;
+    }
+    let det = e0 + e1 + e2;
+    if det == 0.0 {
+        return None;
+    }
+
+    // Scaled distance, tested against (0, t_max) without dividing.
+    p0t.z *= sz;
+    p1t.z *= sz;
+    p2t.z *= sz;
+    let t_scaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
+    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < ray.t_max * det) {
+        return None;
+    }
+    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > ray.t_max * det) {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let b0 = e0 * inv_det;
+    let b1 = e1 * inv_det;
+    let b2 = e2 * inv_det;
+    let t = t_scaled * inv_det;
+
+    // Reject hits whose t is not provably positive (pbrt-v4 §6.8.7).
+    let max_zt = Vec3::new(p0t.z, p1t.z, p2t.z).abs().max_element();
+    let delta_z = gamma(3) * max_zt;
+    let max_xt = Vec3::new(p0t.x, p1t.x, p2t.x).abs().max_element();
+    let max_yt = Vec3::new(p0t.y, p1t.y, p2t.y).abs().max_element();
+    let delta_x = gamma(5) * (max_xt + max_zt);
+    let delta_y = gamma(5) * (max_yt + max_zt);
+    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let max_e = Vec3::new(e0, e1, e2).abs().max_element();
+    let delta_t =
+        3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
+    if t <= delta_t {
+        return None;
+    }
+    Some(TriangleHit { b0, b1, b2, t })
+}
+
+/// Conservative absolute error of the point `b0·p0 + b1·p1 + b2·p2` (pbrt-v4 eq. 6.29).
+pub fn triangle_error_bound(hit: &TriangleHit, p0: Vec3, p1: Vec3, p2: Vec3) -> Vec3 {
+    ((hit.b0 * p0).abs() + (hit.b1 * p1).abs() + (hit.b2 * p2).abs()) * gamma(7)
+}

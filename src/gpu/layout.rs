@@ -1,0 +1,272 @@
+//! Every struct that crosses the CPU–GPU boundary, in one place.
+//!
+//! Each is `#[repr(C)]` + [`bytemuck::Pod`] with named padding (`_pad*`), declared through
+//! [`gpu_struct!`], which also records every field's offset. The WGSL twins live in
+//! `shaders/layout.wgsl` under the same names; the test `layout_matches_wgsl` in
+//! `src/gpu/shader.rs` parses the WGSL with naga and checks that every struct's size and every
+//! field's offset equal the Rust ones. Nothing here relies on a "must match" comment.
+//!
+//! The CPU reference renders from exactly these arrays too, so a disagreement between the
+//! backends points at a kernel, not at the data.
+
+/// A struct whose layout is mirrored by a WGSL struct of the same name.
+pub trait GpuStruct: bytemuck::Pod {
+    /// The struct's name, in Rust and in WGSL.
+    const NAME: &'static str;
+    /// `(field name, byte offset)` for every field, padding included.
+    fn field_offsets() -> Vec<(&'static str, usize)>;
+}
+
+/// Declares a GPU-visible struct and records its field offsets for the layout test.
+macro_rules! gpu_struct {
+    (
+        $(#[$meta:meta])*
+        pub struct $name:ident {
+            $( $(#[$field_meta:meta])* pub $field:ident : $ty:ty ),* $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+        pub struct $name {
+            $( $(#[$field_meta])* pub $field: $ty ),*
+        }
+        impl GpuStruct for $name {
+            const NAME: &'static str = stringify!($name);
+            fn field_offsets() -> Vec<(&'static str, usize)> {
+                vec![$( (stringify!($field), core::mem::offset_of!($name, $field)) ),*]
+            }
+        }
+    };
+}
+
+/// Marks "no index" in `u32` index fields (no emitter, missed ray, …).
+pub const INVALID_INDEX: u32 = u32::MAX;
+
+gpu_struct! {
+    /// One node of the flattened BVH: 32 bytes, the layout of pbrt-v4's `LinearBVHNode`.
+    ///
+    /// Nodes are stored depth-first: an interior node's first child is the next node in the
+    /// array and `offset` is the index of its second child. A leaf's triangles are
+    /// `triangles[offset .. offset + count]`.
+    pub struct BvhNode {
+        pub bounds_min: [f32; 3],
+        /// Interior: index of the second child. Leaf: index of the first triangle.
+        pub offset: u32,
+        pub bounds_max: [f32; 3],
+        /// Bits 0..16: triangle count (0 for an interior node). Bits 16..18: split axis.
+        pub count_axis: u32,
+    }
+}
+
+impl BvhNode {
+    pub fn triangle_count(&self) -> u32 {
+        self.count_axis & 0xffff
+    }
+    pub fn axis(&self) -> u32 {
+        (self.count_axis >> 16) & 3
+    }
+}
+
+gpu_struct! {
+    /// A triangle in BVH leaf order, camera-relative world space, 48 bytes.
+    ///
+    /// Front face = counter-clockwise `p0, p1, p2` seen from the front (glTF's convention,
+    /// already corrected for negative-determinant node transforms).
+    pub struct Triangle {
+        pub p0: [f32; 3],
+        /// Index into the material array.
+        pub material: u32,
+        pub p1: [f32; 3],
+        /// Index into the light array when this triangle emits, else [`INVALID_INDEX`].
+        pub emitter: u32,
+        pub p2: [f32; 3],
+        /// [`TRIANGLE_HAS_NORMALS`]: interpolate the vertex normals in [`TriangleNormals`];
+        /// otherwise shade with the geometric normal.
+        pub flags: u32,
+    }
+}
+
+/// [`Triangle::flags`] bit: the triangle carries per-vertex shading normals.
+pub const TRIANGLE_HAS_NORMALS: u32 = 1;
+
+gpu_struct! {
+    /// Per-vertex shading normals of one triangle (same order as [`Triangle`]), each
+    /// octahedron-encoded into two snorm16 values (Cigolle et al. 2014, "A Survey of Efficient
+    /// Representations for Independent Unit Vectors"); WGSL decodes with `unpack2x16snorm`.
+    pub struct TriangleNormals {
+        pub n0: u32,
+        pub n1: u32,
+        pub n2: u32,
+        pub _pad0: u32,
+    }
+}
+
+gpu_struct! {
+    /// A material reduced to what the kernels evaluate, 80 bytes. See `src/bsdf/gltf.rs` for
+    /// how each field enters the glTF BSDF.
+    pub struct Material {
+        /// Linear base colour.
+        pub base_color: [f32; 3],
+        /// glTF alpha (carried for alpha modes; not yet evaluated).
+        pub alpha: f32,
+        /// Emitted radiance: `emissiveFactor × KHR_materials_emissive_strength`.
+        pub emission: [f32; 3],
+        /// [`MATERIAL_DOUBLE_SIDED`] | [`MATERIAL_VOLUME`].
+        pub flags: u32,
+        /// KHR_materials_specular `specularColorFactor`.
+        pub specular_color: [f32; 3],
+        /// KHR_materials_specular `specularFactor`.
+        pub specular_factor: f32,
+        /// KHR_materials_volume absorption coefficient σₐ = −ln(attenuationColor) /
+        /// attenuationDistance, per unit of scene length.
+        pub attenuation_coefficient: [f32; 3],
+        /// KHR_materials_ior.
+        pub ior: f32,
+        pub metallic: f32,
+        /// GGX α = roughness² (0 means a true delta lobe), see `bsdf::alpha_from_roughness`.
+        pub alpha_roughness: f32,
+        /// KHR_materials_transmission `transmissionFactor`.
+        pub transmission: f32,
+        pub _pad0: f32,
+    }
+}
+
+/// [`Material::flags`] bit: emits from both faces (glTF `doubleSided`).
+pub const MATERIAL_DOUBLE_SIDED: u32 = 1;
+/// [`Material::flags`] bit: a refracting solid (KHR_materials_volume `thicknessFactor` > 0);
+/// otherwise transmission is thin-walled.
+pub const MATERIAL_VOLUME: u32 = 2;
+
+gpu_struct! {
+    /// One light, with its entry of the power-proportional alias table, 64 bytes.
+    pub struct Light {
+        /// Point and spot: position (camera-relative world).
+        pub position: [f32; 3],
+        /// One of the `LIGHT_*` constants.
+        pub kind: u32,
+        /// Spot and directional: the direction the light travels in (unit).
+        pub direction: [f32; 3],
+        /// Emissive triangle: index into the triangle array.
+        pub triangle: u32,
+        /// Point and spot: radiant intensity (W/sr per unit colour). Directional: irradiance.
+        /// Emissive triangle: unused (the radiance is the material's emission).
+        pub intensity: [f32; 3],
+        /// Probability of choosing this light (proportional to its power).
+        pub pmf: f32,
+        /// Spot: cos(outer cone angle).
+        pub cos_outer: f32,
+        /// Spot: 1 / (cos inner − cos outer), as KHR_lights_punctual suggests.
+        pub spot_scale: f32,
+        /// Alias table (Vose 1991): keep this entry with this probability…
+        pub alias_probability: f32,
+        /// …else take this one.
+        pub alias_index: u32,
+    }
+}
+
+pub const LIGHT_TRIANGLE: u32 = 0;
+pub const LIGHT_POINT: u32 = 1;
+pub const LIGHT_SPOT: u32 = 2;
+pub const LIGHT_DIRECTIONAL: u32 = 3;
+
+gpu_struct! {
+    /// The camera, in camera-relative world space (it sits at the origin), 48 bytes.
+    pub struct Camera {
+        /// Unit vector to the image's right.
+        pub right: [f32; 3],
+        /// [`PROJECTION_PERSPECTIVE`] or [`PROJECTION_ORTHOGRAPHIC`].
+        pub projection: u32,
+        /// Unit vector to the image's top.
+        pub up: [f32; 3],
+        /// Perspective: tan(yfov / 2). Orthographic: half the view height (glTF `ymag`).
+        pub half_height: f32,
+        /// Unit viewing direction (the camera node's −Z).
+        pub forward: [f32; 3],
+        /// Perspective: tan(xfov / 2). Orthographic: half the view width.
+        pub half_width: f32,
+    }
+}
+
+pub const PROJECTION_PERSPECTIVE: u32 = 0;
+pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
+
+gpu_struct! {
+    /// What one dispatch computes, 48 bytes.
+    pub struct FrameParams {
+        pub width: u32,
+        pub height: u32,
+        /// Index of the first sample of this dispatch, per pixel.
+        pub sample_offset: u32,
+        /// Samples per pixel this dispatch adds.
+        pub samples: u32,
+        pub seed: u32,
+        /// Most scattering events a path may have (`u32::MAX`: unlimited).
+        pub max_depth: u32,
+        /// Russian roulette applies once a path has this many scattering events.
+        pub rr_min_depth: u32,
+        pub light_count: u32,
+        /// First image row of this dispatch.
+        pub row_offset: u32,
+        /// Rows in this dispatch.
+        pub row_count: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// One pixel of the film: Welford's running mean and sum of squared deviations
+    /// (Welford 1962; Knuth TAOCP vol. 2 §4.2.2), 32 bytes.
+    pub struct FilmPixel {
+        pub mean: [f32; 3],
+        /// Samples accumulated.
+        pub count: u32,
+        /// Σ (x − mean)², per channel.
+        pub m2: [f32; 3],
+        /// Samples rejected because they were not finite.
+        pub rejected: u32,
+    }
+}
+
+gpu_struct! {
+    /// What the camera ray of sample 0 hit: for first-hit agreement tests and, later, AOVs.
+    pub struct FirstHit {
+        /// Shading normal (world, facing the camera); zero on a miss.
+        pub normal: [f32; 3],
+        /// Distance from the camera; 0 on a miss.
+        pub distance: f32,
+        /// Base colour of the material hit.
+        pub albedo: [f32; 3],
+        /// Index of the triangle hit (BVH order), or [`INVALID_INDEX`].
+        pub triangle: u32,
+    }
+}
+
+/// Every GPU-visible struct as `(name, size, field offsets)`, for the layout test.
+pub fn all_layouts() -> Vec<(&'static str, usize, Vec<(&'static str, usize)>)> {
+    fn entry<T: GpuStruct>() -> (&'static str, usize, Vec<(&'static str, usize)>) {
+        (T::NAME, std::mem::size_of::<T>(), T::field_offsets())
+    }
+    vec![
+        entry::<BvhNode>(),
+        entry::<Triangle>(),
+        entry::<TriangleNormals>(),
+        entry::<Material>(),
+        entry::<Light>(),
+        entry::<Camera>(),
+        entry::<FrameParams>(),
+        entry::<FilmPixel>(),
+        entry::<FirstHit>(),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bvh_node_is_32_bytes() {
+        assert_eq!(std::mem::size_of::<BvhNode>(), 32);
+    }
+}

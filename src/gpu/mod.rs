@@ -1,0 +1,3 @@
+//! The GPU megakernel backend (wgpu on Vulkan).
+
+pub mod layout;

@@ -1,0 +1,27 @@
+//! pathlight: a physically based Monte Carlo path tracer.
+//!
+//! The production renderer is a WGSL compute megakernel run through wgpu on Vulkan
+//! ([`gpu`]); the CPU reference renderer ([`cpu`]) implements the same algorithm from the
+//! same flat arrays and proves it right.
+//!
+//! ```text
+//! glTF ──scene::load──▶ Scene (f64) ──FlatScene::build──▶ camera-relative f32 arrays + BVH
+//!                                                       ├─▶ cpu::CpuBackend ─┐
+//!                                                       └─▶ gpu::GpuBackend ─┴─▶ Film ─▶ EXR/PNG
+//! ```
+
+pub mod bsdf;
+pub mod bvh;
+pub mod cpu;
+pub mod error;
+pub mod film;
+pub mod geometry;
+pub mod gpu;
+pub mod light;
+pub mod render;
+pub mod sampling;
+pub mod scene;
+pub mod stats;
+
+pub use error::{Error, Result};
+pub use render::{render_progressive, Backend, RenderSettings, RenderStats};

@@ -1,0 +1,157 @@
+//! Light sampling for next-event estimation: one light chosen by power from the alias
+//! table, then a point on it (emissive triangles: uniform by area; punctual lights: their
+//! position or direction).
+//!
+//! WGSL twin: `shaders/light.wgsl` (same function names).
+
+use glam::{Vec2, Vec3};
+
+use crate::geometry::{offset_ray_origin, spawn_ray, spawn_ray_to, gamma, Ray};
+use crate::gpu::layout::{Light, Material, Triangle, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED};
+use crate::sampling::sample_uniform_triangle;
+
+/// The flat arrays light sampling reads.
+#[derive(Clone, Copy)]
+pub struct LightArrays<'a> {
+    pub lights: &'a [Light],
+    pub triangles: &'a [Triangle],
+    pub materials: &'a [Material],
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Incident radiance (area lights) or irradiance-per-unit-solid-angle equivalent
+    /// (delta lights: intensity / distance², or directional irradiance).
+    pub radiance: Vec3,
+    /// Area lights: density per solid angle at the shading point, including the choice of
+    /// the light. Delta lights: the probability of choosing the light.
+    pub pdf: f32,
+    pub is_delta: bool,
+    /// The visibility test: unoccluded iff it hits nothing.
+    pub shadow_ray: Ray,
+}
+
+/// Chooses a light with probability `pmf` using two uniforms (column, coin).
+pub fn choose_light(lights: &[Light], u: Vec2) -> usize {
+    let n = lights.len();
+    let i = ((u.x * n as f32) as usize).min(n - 1);
+    if u.y < lights[i].alias_probability {
+        i
+    } else {
+        lights[i].alias_index as usize
+    }
+}
+
+/// Unit geometric normal (winding) and area of a triangle.
+pub fn triangle_normal_area(t: &Triangle) -> (Vec3, f32) {
+    let c = (Vec3::from(t.p1) - Vec3::from(t.p0)).cross(Vec3::from(t.p2) - Vec3::from(t.p0));
+    let len = c.length();
+    if len == 0.0 {
+        (Vec3::Z, 0.0)
+    } else {
+        (c / len, 0.5 * len)
+    }
+}
+
+/// KHR_lights_punctual's recommended spot falloff: a squared linear ramp in cos θ between
+/// the outer and inner cone.
+pub fn spot_falloff(light: &Light, cos_theta: f32) -> f32 {
+    let t = ((cos_theta - light.cos_outer) * light.spot_scale).clamp(0.0, 1.0);
+    t * t
+}
+
+/// Samples incident light at surface point `p` (error bound `p_error`, geometric normal
+/// `n_geometric`, used only to offset the shadow ray).
+pub fn sample_light(arrays: LightArrays, p: Vec3, p_error: Vec3, n_geometric: Vec3, u_select: Vec2, u_point: Vec2) -> Option<LightSample> {
+    if arrays.lights.is_empty() {
+        return None;
+    }
+    let index = choose_light(arrays.lights, u_select);
+    let light = &arrays.lights[index];
+    let pmf = light.pmf;
+    if !(pmf > 0.0) {
+        return None;
+    }
+    match light.kind {
+        LIGHT_TRIANGLE => {
+            let tri = &arrays.triangles[light.triangle as usize];
+            let material = &arrays.materials[tri.material as usize];
+            let (p0, p1, p2) = (Vec3::from(tri.p0), Vec3::from(tri.p1), Vec3::from(tri.p2));
+            let b = sample_uniform_triangle(u_point);
+            let q = b.x * p0 + b.y * p1 + b.z * p2;
+            // Error bound of an interpolated point (pbrt-v4 `Triangle::Sample`).
+            let q_error = gamma(6) * ((b.x * p0).abs() + (b.y * p1).abs() + (b.z * p2).abs());
+            let (n_light, area) = triangle_normal_area(tri);
+            let to_light = q - p;
+            let dist2 = to_light.length_squared();
+            if dist2 == 0.0 || area == 0.0 {
+                return None;
+            }
+            let wi = to_light / dist2.sqrt();
+            let cos_light = -wi.dot(n_light);
+            let double_sided = material.flags & MATERIAL_DOUBLE_SIDED != 0;
+            if cos_light == 0.0 || (!double_sided && cos_light < 0.0) {
+                return None;
+            }
+            let pdf = pmf * dist2 / (area * cos_light.abs());
+            let q_off = offset_ray_origin(q, q_error, n_light, -wi);
+            Some(LightSample {
+                wi,
+                radiance: Vec3::from(material.emission),
+                pdf,
+                is_delta: false,
+                shadow_ray: spawn_ray_to(p, p_error, n_geometric, q_off),
+            })
+        }
+        LIGHT_POINT | LIGHT_SPOT => {
+            let pos = Vec3::from(light.position);
+            let to_light = pos - p;
+            let dist2 = to_light.length_squared();
+            if dist2 == 0.0 {
+                return None;
+            }
+            let wi = to_light / dist2.sqrt();
+            let mut radiance = Vec3::from(light.intensity) / dist2;
+            if light.kind == LIGHT_SPOT {
+                radiance *= spot_falloff(light, -wi.dot(Vec3::from(light.direction)));
+            }
+            Some(LightSample {
+                wi,
+                radiance,
+                pdf: pmf,
+                is_delta: true,
+                shadow_ray: spawn_ray_to(p, p_error, n_geometric, pos),
+            })
+        }
+        LIGHT_DIRECTIONAL => {
+            let wi = -Vec3::from(light.direction);
+            Some(LightSample {
+                wi,
+                radiance: Vec3::from(light.intensity),
+                pdf: pmf,
+                is_delta: true,
+                shadow_ray: spawn_ray(p, p_error, n_geometric, wi),
+            })
+        }
+        _ => None,
+    }
+}
+
+/// Density per solid angle with which [`sample_light`] would have produced the direction of
+/// a ray from `origin` that hit emissive triangle `tri` (light `light`) at `hit_point`:
+/// `pmf · distance² / (area · |cos θ_light|)`.
+pub fn triangle_light_pdf(light: &Light, tri: &Triangle, origin: Vec3, hit_point: Vec3) -> f32 {
+    let (n_light, area) = triangle_normal_area(tri);
+    let d = hit_point - origin;
+    let dist2 = d.length_squared();
+    if dist2 == 0.0 || area == 0.0 {
+        return 0.0;
+    }
+    let cos_light = (d / dist2.sqrt()).dot(n_light).abs();
+    if cos_light == 0.0 {
+        return 0.0;
+    }
+    light.pmf * dist2 / (area * cos_light)
+}

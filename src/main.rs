@@ -1,0 +1,205 @@
+//! The `pathlight` command line.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use pathlight::film::{write_exr, write_png, RenderMetadata, Tonemap};
+use pathlight::scene::{FlatScene, ViewSettings};
+use pathlight::{Backend, Error, RenderSettings};
+
+#[derive(Parser)]
+#[command(name = "pathlight", version, about = "A physically based Monte Carlo path tracer (GPU megakernel on Vulkan, CPU reference)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a glTF scene to EXR (linear, with per-pixel variance) and/or PNG.
+    Render(RenderArgs),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum BackendChoice {
+    Cpu,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum TonemapChoice {
+    Clamp,
+    Aces,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The scene (.gltf or .glb).
+    scene: PathBuf,
+    /// Output image(s): .exr (linear radiance + variance) or .png (sRGB). Repeat for several.
+    #[arg(short, long = "output", required = true)]
+    output: Vec<PathBuf>,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Image width (default 512; derived from the camera's aspect ratio if only --height is given).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height (default 512; derived from the camera's aspect ratio if only --width is given).
+    #[arg(long)]
+    height: Option<u32>,
+    #[arg(long, value_enum, default_value_t = BackendChoice::Cpu)]
+    backend: BackendChoice,
+    /// Random seed; the same seed gives the same image.
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Most scattering events per path (default: unlimited; Russian roulette ends paths).
+    #[arg(long)]
+    max_depth: Option<u32>,
+    /// Camera index in the file (default: the first camera, or one framing the scene).
+    #[arg(long)]
+    camera: Option<usize>,
+    /// PNG exposure in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// PNG tone curve.
+    #[arg(long, value_enum, default_value_t = TonemapChoice::Clamp)]
+    tonemap: TonemapChoice,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => run_render(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The image size: 512×512 by default; with only one side given, the other follows the
+/// camera's aspect ratio (square if the camera has none).
+fn image_size(width: Option<u32>, height: Option<u32>, aspect: Option<f64>) -> (u32, u32) {
+    let aspect = aspect.unwrap_or(1.0);
+    match (width, height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, ((w as f64 / aspect).round() as u32).max(1)),
+        (None, Some(h)) => (((h as f64 * aspect).round() as u32).max(1), h),
+        (None, None) => (512, 512),
+    }
+}
+
+fn check_output(path: &Path) -> Result<(), Error> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("exr") | Some("png") => Ok(()),
+        _ => Err(Error::Settings(format!("{}: output must end in .exr or .png", path.display()))),
+    }
+}
+
+fn run_render(args: RenderArgs) -> Result<(), Error> {
+    for o in &args.output {
+        check_output(o)?;
+    }
+    if args.spp == 0 {
+        return Err(Error::Settings("--spp must be at least 1".into()));
+    }
+    if args.width == Some(0) || args.height == Some(0) {
+        return Err(Error::Settings("--width and --height must be at least 1".into()));
+    }
+    let (scene, warnings) = pathlight::scene::load(&args.scene)?;
+    for w in &warnings {
+        eprintln!("warning: {}: {w}", args.scene.display());
+    }
+    let camera_aspect = match args.camera {
+        Some(i) => scene.cameras.get(i).and_then(|c| c.aspect_ratio()),
+        None => scene.cameras.first().and_then(|c| c.aspect_ratio()),
+    };
+    let (width, height) = image_size(args.width, args.height, camera_aspect);
+    let view = ViewSettings {
+        camera: args.camera,
+        aspect: width as f64 / height as f64,
+    };
+    let flat = FlatScene::build(&scene, &view)?;
+    eprintln!(
+        "{}: {} triangles, {} lights, BVH {} nodes built in {:.3} s (SAH cost {:.2}), features: {}",
+        args.scene.display(),
+        flat.triangles.len(),
+        flat.lights.len(),
+        flat.bvh_stats.nodes,
+        flat.bvh_stats.build_seconds,
+        flat.bvh_stats.sah_cost,
+        flat.features.describe()
+    );
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: args.spp,
+        seed: args.seed,
+        max_depth: args.max_depth,
+        ..RenderSettings::default()
+    };
+    let mut backend: Box<dyn Backend + '_> = match args.backend {
+        BackendChoice::Cpu => Box::new(pathlight::cpu::CpuBackend::new(&flat, &settings)),
+    };
+
+    // Ctrl-C stops after the pass in flight and still writes what was rendered; a second
+    // Ctrl-C exits at once.
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        let _ = ctrlc::set_handler(move || {
+            if stop.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+            eprintln!("\ninterrupted: finishing the current pass and writing the image (Ctrl-C again to abort)");
+        });
+    }
+    let bar = ProgressBar::new(args.spp as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} spp  {elapsed_precise} elapsed  ETA {eta_precise}")
+            .expect("static template"),
+    );
+    let stats = pathlight::render_progressive(backend.as_mut(), args.spp, &stop, |done| bar.set_position(done as u64))?;
+    bar.finish_and_clear();
+    let film = backend.film()?;
+    let rejected = film.total_rejected();
+    let meta = RenderMetadata {
+        scene: args.scene.display().to_string(),
+        backend: backend.name(),
+        spp: stats.spp,
+        seed: args.seed,
+        max_depth: args.max_depth,
+        render_seconds: stats.seconds,
+        rejected_samples: rejected,
+    };
+    let tonemap = match args.tonemap {
+        TonemapChoice::Clamp => Tonemap::Clamp,
+        TonemapChoice::Aces => Tonemap::Aces,
+    };
+    for o in &args.output {
+        let is_exr = o.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+        if is_exr {
+            write_exr(&film, &meta, o)?;
+        } else {
+            write_png(&film, o, tonemap, args.exposure)?;
+        }
+    }
+    let samples = film.total_samples() + rejected;
+    eprintln!(
+        "{}{} spp at {width}×{height} in {:.2} s: {:.3} Msamples/s, {rejected} rejected sample(s), backend {}",
+        if stats.interrupted { "interrupted after " } else { "" },
+        stats.spp,
+        stats.seconds,
+        samples as f64 / stats.seconds.max(1e-9) / 1e6,
+        meta.backend
+    );
+    Ok(())
+}

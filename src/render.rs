@@ -1,0 +1,89 @@
+//! The backend-independent render loop: progressive passes into a film, with progress
+//! reporting and a stop flag, so an interrupted render keeps every finished sample.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use crate::error::Result;
+use crate::film::Film;
+
+/// What to render. Shared by both backends.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    pub seed: u32,
+    /// Most scattering events per path; `None`: unlimited (Russian roulette ends paths).
+    pub max_depth: Option<u32>,
+    /// Russian roulette starts once a path has this many scattering events.
+    pub rr_min_depth: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 512,
+            height: 512,
+            spp: 64,
+            seed: 0,
+            max_depth: None,
+            rr_min_depth: 3,
+        }
+    }
+}
+
+/// A renderer that adds samples to its own film.
+pub trait Backend {
+    /// Human-readable name (recorded in outputs).
+    fn name(&self) -> String;
+    /// Adds samples `sample_offset .. sample_offset + samples` to every pixel.
+    fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()>;
+    /// The film as accumulated so far.
+    fn film(&mut self) -> Result<Film>;
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderStats {
+    /// Samples per pixel completed.
+    pub spp: u32,
+    pub seconds: f64,
+    /// Stopped early by the stop flag.
+    pub interrupted: bool,
+}
+
+/// Passes are sized to take about this long, so progress and interruption stay responsive
+/// without per-pass overhead dominating.
+const TARGET_PASS_SECONDS: f64 = 0.5;
+
+/// Renders `spp` samples per pixel in progressive passes. `progress(done)` is called after
+/// each pass; when `stop` becomes true the loop ends after the pass in flight.
+pub fn render_progressive(backend: &mut dyn Backend, spp: u32, stop: &AtomicBool, mut progress: impl FnMut(u32)) -> Result<RenderStats> {
+    let start = Instant::now();
+    let mut done = 0u32;
+    let mut pass = 1u32;
+    while done < spp {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(RenderStats {
+                spp: done,
+                seconds: start.elapsed().as_secs_f64(),
+                interrupted: true,
+            });
+        }
+        let n = pass.min(spp - done);
+        let t = Instant::now();
+        backend.render(done, n)?;
+        done += n;
+        progress(done);
+        let per_sample = t.elapsed().as_secs_f64() / n as f64;
+        // Grow at most 2× per pass so one slow pass cannot overshoot badly.
+        let ideal = if per_sample > 0.0 { TARGET_PASS_SECONDS / per_sample } else { f64::MAX };
+        pass = (ideal as u32).clamp(1, pass.saturating_mul(2));
+    }
+    Ok(RenderStats {
+        spp: done,
+        seconds: start.elapsed().as_secs_f64(),
+        interrupted: false,
+    })
+}

@@ -1,0 +1,89 @@
+//! Which parts of the renderer a scene actually needs ("model only what a scene needs").
+//! The GPU kernel is specialised to this set; the CPU reference ignores it, so a wrong
+//! feature set shows up as a GPU–CPU disagreement in the equivalence tests.
+
+use crate::gpu::layout::{self, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_VOLUME};
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SceneFeatures {
+    /// Some material has a GGX lobe (metallic > 0, or a dielectric specular layer), rough or
+    /// smooth.
+    pub specular: bool,
+    /// Some material transmits (KHR_materials_transmission > 0).
+    pub transmission: bool,
+    /// Some transmissive material is a refracting solid with Beer–Lambert absorption.
+    pub volume: bool,
+    /// Some triangle emits.
+    pub emissive_triangles: bool,
+    /// Point or spot lights.
+    pub point_lights: bool,
+    /// Spot lights (their cone falloff).
+    pub spot_lights: bool,
+    pub directional_lights: bool,
+}
+
+impl SceneFeatures {
+    /// Every feature on: the un-specialised kernel.
+    pub const ALL: SceneFeatures = SceneFeatures {
+        specular: true,
+        transmission: true,
+        volume: true,
+        emissive_triangles: true,
+        point_lights: true,
+        spot_lights: true,
+        directional_lights: true,
+    };
+
+    /// The features of `materials[i]` for every `i` in `used_materials`, and of `lights`.
+    pub fn detect(materials: &[layout::Material], used_materials: &[bool], lights: &[layout::Light]) -> SceneFeatures {
+        let mut f = SceneFeatures::default();
+        for (m, _) in materials.iter().zip(used_materials).filter(|(_, used)| **used) {
+            // The dielectric specular layer vanishes only when specularFactor is 0; a metal
+            // lobe needs metallic > 0.
+            f.specular |= m.metallic > 0.0 || m.specular_factor > 0.0;
+            f.transmission |= m.transmission > 0.0 && m.metallic < 1.0;
+            f.volume |= m.flags & MATERIAL_VOLUME != 0;
+        }
+        for l in lights {
+            match l.kind {
+                LIGHT_TRIANGLE => f.emissive_triangles = true,
+                LIGHT_POINT => f.point_lights = true,
+                LIGHT_SPOT => {
+                    f.point_lights = true;
+                    f.spot_lights = true
+                }
+                LIGHT_DIRECTIONAL => f.directional_lights = true,
+                _ => {}
+            }
+        }
+        f
+    }
+
+    /// `(WGSL override name, value)` for each feature, as the kernel declares them.
+    pub fn pipeline_constants(&self) -> [(&'static str, bool); 7] {
+        [
+            ("FEATURE_SPECULAR", self.specular),
+            ("FEATURE_TRANSMISSION", self.transmission),
+            ("FEATURE_VOLUME", self.volume),
+            ("FEATURE_EMISSIVE_TRIANGLES", self.emissive_triangles),
+            ("FEATURE_POINT_LIGHTS", self.point_lights),
+            ("FEATURE_SPOT_LIGHTS", self.spot_lights),
+            ("FEATURE_DIRECTIONAL_LIGHTS", self.directional_lights),
+        ]
+    }
+
+    /// A short human-readable list, e.g. `specular+emissive`.
+    pub fn describe(&self) -> String {
+        let names: Vec<&str> = self
+            .pipeline_constants()
+            .iter()
+            .filter(|(_, on)| *on)
+            .map(|(n, _)| n.trim_start_matches("FEATURE_"))
+            .collect();
+        if names.is_empty() {
+            "diffuse only".into()
+        } else {
+            names.join("+").to_lowercase()
+        }
+    }
+}

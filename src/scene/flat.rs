@@ -1,0 +1,200 @@
+//! [`FlatScene`]: the scene as both backends render it — camera-relative f32 arrays, the
+//! flattened BVH, and the light table.
+
+use glam::{DVec3, Vec3};
+
+use super::{oct_encode, CameraDesc, PunctualKind, Scene, SceneFeatures};
+use crate::bvh::{self, BvhStats};
+use crate::error::{Error, Result};
+use crate::gpu::layout::{
+    self, BvhNode, Light, Triangle, TriangleNormals, INVALID_INDEX, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT,
+    LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, TRIANGLE_HAS_NORMALS,
+};
+use crate::light::triangle_normal_area;
+use crate::sampling::build_alias_table;
+
+/// Which camera to render through, and the image's shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewSettings {
+    /// Index into the scene's cameras; `None`: the first, or a framing camera if none.
+    pub camera: Option<usize>,
+    /// Image width / height.
+    pub aspect: f64,
+}
+
+/// Everything a backend needs, in the layout the GPU reads.
+#[derive(Clone, Debug)]
+pub struct FlatScene {
+    pub nodes: Vec<BvhNode>,
+    /// BVH leaf order.
+    pub triangles: Vec<Triangle>,
+    pub normals: Vec<TriangleNormals>,
+    pub materials: Vec<layout::Material>,
+    pub lights: Vec<Light>,
+    pub camera: layout::Camera,
+    /// The camera as placed in the world (its position is this scene's origin).
+    pub camera_desc: CameraDesc,
+    pub features: SceneFeatures,
+    pub bvh_stats: BvhStats,
+    /// Radius of the sphere about the scene's bounding-box centre that holds it.
+    pub scene_radius: f32,
+}
+
+/// Rec. 709 luminance of linear RGB.
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+impl FlatScene {
+    pub fn build(scene: &Scene, view: &ViewSettings) -> Result<FlatScene> {
+        let (bmin, bmax) = scene
+            .bounds()
+            .ok_or_else(|| Error::scene(&scene.source, "the scene has no triangles to render"))?;
+        let camera_desc = match view.camera {
+            Some(i) => scene.cameras.get(i).cloned().ok_or_else(|| {
+                Error::Settings(format!(
+                    "--camera {i}: {} has {} camera(s)",
+                    scene.source.display(),
+                    scene.cameras.len()
+                ))
+            })?,
+            None => scene
+                .cameras
+                .first()
+                .cloned()
+                .unwrap_or_else(|| CameraDesc::framing(bmin, bmax, view.aspect)),
+        };
+        // Camera-relative coordinates: subtract the camera position in f64, then round.
+        let origin = camera_desc.position;
+        let rel = |p: DVec3| (p - origin).as_vec3();
+        let positions: Vec<[Vec3; 3]> = scene
+            .positions
+            .chunks_exact(3)
+            .map(|t| [rel(t[0]), rel(t[1]), rel(t[2])])
+            .collect();
+        let bvh = bvh::build(&positions);
+
+        let materials: Vec<layout::Material> = scene.materials.iter().map(|m| m.to_gpu()).collect();
+        let mut triangles = Vec::with_capacity(positions.len());
+        let mut normals = Vec::with_capacity(positions.len());
+        for &src in &bvh.order {
+            let src = src as usize;
+            let [p0, p1, p2] = positions[src];
+            let n = scene.normals[src];
+            triangles.push(Triangle {
+                p0: p0.to_array(),
+                material: scene.triangle_materials[src],
+                p1: p1.to_array(),
+                emitter: INVALID_INDEX,
+                p2: p2.to_array(),
+                flags: if n.is_some() { TRIANGLE_HAS_NORMALS } else { 0 },
+            });
+            normals.push(match n {
+                Some([n0, n1, n2]) => TriangleNormals {
+                    n0: oct_encode(n0),
+                    n1: oct_encode(n1),
+                    n2: oct_encode(n2),
+                    _pad0: 0,
+                },
+                None => TriangleNormals::default(),
+            });
+        }
+
+        let scene_radius = (0.5 * (bmax - bmin).length()).max(1e-6) as f32;
+
+        // Lights and their powers (pbrt-v4 `PowerLightSampler`): Φ = π·A·L (×2 two-sided)
+        // for emissive triangles, 4π·I for point lights, 2π·I·(1 − (cos_in + cos_out)/2) for
+        // spots, π·r²·E for directional lights over the scene's bounding disk.
+        let mut lights = Vec::new();
+        let mut powers = Vec::new();
+        for (i, tri) in triangles.iter_mut().enumerate() {
+            let m = &materials[tri.material as usize];
+            let le = Vec3::from(m.emission);
+            if le.max_element() <= 0.0 {
+                continue;
+            }
+            let (_, area) = triangle_normal_area(tri);
+            let sides = if m.flags & MATERIAL_DOUBLE_SIDED != 0 { 2.0 } else { 1.0 };
+            tri.emitter = lights.len() as u32;
+            lights.push(Light {
+                kind: LIGHT_TRIANGLE,
+                triangle: i as u32,
+                ..Default::default()
+            });
+            powers.push(std::f64::consts::PI * area as f64 * luminance(le) as f64 * sides);
+        }
+        for pl in &scene.lights {
+            let intensity = pl.intensity;
+            let mut light = Light {
+                position: rel(pl.position).to_array(),
+                direction: pl.direction.as_vec3().to_array(),
+                intensity: intensity.to_array(),
+                triangle: INVALID_INDEX,
+                ..Default::default()
+            };
+            let lum = luminance(intensity) as f64;
+            let power = match pl.kind {
+                PunctualKind::Point => {
+                    light.kind = LIGHT_POINT;
+                    4.0 * std::f64::consts::PI * lum
+                }
+                PunctualKind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => {
+                    light.kind = LIGHT_SPOT;
+                    let inner = inner_cone_angle.min(outer_cone_angle);
+                    light.cos_outer = outer_cone_angle.cos();
+                    light.spot_scale = 1.0 / (inner.cos() - light.cos_outer).max(1e-3);
+                    let (ci, co) = (inner.cos() as f64, light.cos_outer as f64);
+                    2.0 * std::f64::consts::PI * lum * (1.0 - 0.5 * (ci + co))
+                }
+                PunctualKind::Directional => {
+                    light.kind = LIGHT_DIRECTIONAL;
+                    std::f64::consts::PI * (scene_radius as f64).powi(2) * lum
+                }
+            };
+            lights.push(light);
+            powers.push(power);
+        }
+        if let Some(table) = build_alias_table(&powers) {
+            for (l, e) in lights.iter_mut().zip(table) {
+                l.pmf = e.pmf;
+                l.alias_probability = e.probability;
+                l.alias_index = e.alias;
+            }
+        } else {
+            // No light carries power: nothing to sample. Emissive triangles keep no index.
+            lights.clear();
+            for t in &mut triangles {
+                t.emitter = INVALID_INDEX;
+            }
+        }
+        let mut used_materials = vec![false; materials.len()];
+        for t in &triangles {
+            used_materials[t.material as usize] = true;
+        }
+        let features = SceneFeatures::detect(&materials, &used_materials, &lights);
+        Ok(FlatScene {
+            camera: camera_desc.to_gpu(view.aspect),
+            nodes: bvh.nodes,
+            triangles,
+            normals,
+            materials,
+            lights,
+            camera_desc,
+            features,
+            bvh_stats: bvh.stats,
+            scene_radius,
+        })
+    }
+
+    /// The arrays light sampling reads.
+    pub fn light_arrays(&self) -> crate::light::LightArrays<'_> {
+        crate::light::LightArrays {
+            lights: &self.lights,
+            triangles: &self.triangles,
+            materials: &self.materials,
+        }
+    }
+}

@@ -1,0 +1,478 @@
+//! glTF 2.0 (.gltf / .glb) → [`Scene`].
+//!
+//! Node transforms are read from the JSON as f64 (the `gltf` crate stores them as f32) and
+//! composed in f64, so a model placed far from the origin keeps its precision until
+//! [`FlatScene`](super::FlatScene) makes it camera-relative.
+
+use std::path::Path;
+
+use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
+use gltf::json::validation::Validate;
+
+use super::accessor::{load_buffers, read_indices, read_vec3};
+use super::camera::{CameraDesc, Projection};
+use super::light::{PunctualKind, PunctualLight};
+use super::material::{AlphaMode, MaterialDesc, TextureSlot};
+use super::Scene;
+use crate::error::{Error, Result};
+
+/// Extensions whose meaning pathlight implements.
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+];
+
+/// Loads a glTF scene. Warnings (ignored optional extensions, features not yet rendered,
+/// dropped primitives) are returned beside it for the caller to show.
+pub fn load(file: &Path) -> Result<(Scene, Vec<String>)> {
+    let bytes = std::fs::read(file).map_err(|e| Error::io(file, e))?;
+    load_from_bytes(&bytes, file)
+}
+
+/// Loads a glTF scene from bytes; `file` names it in errors and resolves relative URIs.
+pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)> {
+    let err = |m: String| Error::scene(file, m);
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| err(format!("not a valid glTF file: {e}")))?;
+    let mut warnings = Vec::new();
+
+    // Extensions: our own policy, since the gltf crate's list differs from what we render.
+    for ext in gltf.extensions_required() {
+        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+            return Err(err(format!("requires extension {ext}, which pathlight does not support")));
+        }
+    }
+    let ignored: Vec<&str> = gltf.extensions_used().filter(|e| !SUPPORTED_EXTENSIONS.contains(e)).collect();
+    if !ignored.is_empty() {
+        warnings.push(format!("ignoring optional extensions: {}", ignored.join(", ")));
+    }
+
+    // Structural validation (index ranges etc.), minus the crate's own required-extension
+    // check, which we replaced above.
+    let root = gltf.document.as_json();
+    let mut problems = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+        let path = path().to_string();
+        if !path.starts_with("extensionsRequired") {
+            problems.push(format!("{path}: {error:?}"));
+        }
+    });
+    if !problems.is_empty() {
+        let shown: Vec<_> = problems.iter().take(5).cloned().collect();
+        return Err(err(format!(
+            "invalid glTF ({} problem{}): {}",
+            problems.len(),
+            if problems.len() == 1 { "" } else { "s" },
+            shown.join("; ")
+        )));
+    }
+
+    let raw_json = raw_json_value(bytes).map_err(|e| err(format!("cannot re-read the JSON: {e}")))?;
+    let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), file)?;
+    let doc = &gltf.document;
+
+    let mut scene = Scene {
+        source: file.to_path_buf(),
+        ..Scene::default()
+    };
+    scene.materials = doc.materials().map(|m| read_material(&m, file)).collect::<Result<_>>()?;
+    let default_material = scene.materials.len() as u32;
+    scene.materials.push(MaterialDesc::default());
+    let textured: Vec<&str> = scene.materials.iter().filter(|m| m.uses_textures()).map(|m| m.name.as_str()).collect();
+    if !textured.is_empty() {
+        warnings.push(format!(
+            "textures are not rendered yet; {} material(s) use their factors only ({})",
+            textured.len(),
+            textured.iter().take(4).cloned().collect::<Vec<_>>().join(", ")
+        ));
+    }
+    let alpha: Vec<&str> = scene
+        .materials
+        .iter()
+        .filter(|m| m.alpha_mode != AlphaMode::Opaque)
+        .map(|m| m.name.as_str())
+        .collect();
+    if !alpha.is_empty() {
+        warnings.push(format!("alpha modes are not rendered yet; {} material(s) treated as opaque", alpha.len()));
+    }
+
+    let gltf_scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| err("the file has no scene".into()))?;
+
+    let mut stats = LoadStats::default();
+    let node_count = doc.nodes().count();
+    // Depth-first over the node hierarchy with f64 world transforms. A path longer than the
+    // node count must repeat a node: the file has a cycle (forbidden by the spec).
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> =
+        gltf_scene.nodes().map(|n| (n, DMat4::IDENTITY, 1)).collect();
+    stack.reverse();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > node_count {
+            return Err(err(format!("the node hierarchy has a cycle through node {}", node.index())));
+        }
+        let local = node_transform(&raw_json, node.index()).map_err(|m| err(format!("node {}: {m}", node.index())))?;
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(err(format!("node {}: transform is not finite", node.index())));
+        }
+        if let Some(mesh) = node.mesh() {
+            add_mesh(&mut scene, &mut stats, &buffers, &mesh, &world, default_material, file)?;
+        }
+        if let Some(camera) = node.camera() {
+            let (_, rotation, translation) = decompose(&world);
+            let projection = match camera.projection() {
+                gltf::camera::Projection::Perspective(p) => Projection::Perspective {
+                    yfov: p.yfov() as f64,
+                    aspect_ratio: p.aspect_ratio().map(|a| a as f64),
+                },
+                gltf::camera::Projection::Orthographic(o) => Projection::Orthographic {
+                    xmag: o.xmag().abs() as f64,
+                    ymag: o.ymag().abs() as f64,
+                },
+            };
+            let valid = match projection {
+                Projection::Perspective { yfov, aspect_ratio } => {
+                    yfov > 0.0 && yfov < std::f64::consts::PI && aspect_ratio.is_none_or(|a| a > 0.0 && a.is_finite())
+                }
+                Projection::Orthographic { xmag, ymag } => xmag > 0.0 && ymag > 0.0,
+            };
+            let name = camera.name().map(str::to_owned).unwrap_or_else(|| format!("camera {}", camera.index()));
+            match CameraDesc::from_node(name, projection, rotation, translation) {
+                Some(c) if valid => scene.cameras.push(c),
+                _ => warnings.push(format!("camera {} on node {} is degenerate; skipped", camera.index(), node.index())),
+            }
+        }
+        if let Some(light) = node.light() {
+            let (_, rotation, translation) = decompose(&world);
+            let color = Vec3::from(light.color());
+            let intensity = color * light.intensity();
+            if !intensity.is_finite() || intensity.min_element() < 0.0 {
+                return Err(err(format!("light {}: colour × intensity is not a finite non-negative value", light.index())));
+            }
+            let kind = match light.kind() {
+                gltf::khr_lights_punctual::Kind::Point => PunctualKind::Point,
+                gltf::khr_lights_punctual::Kind::Directional => PunctualKind::Directional,
+                gltf::khr_lights_punctual::Kind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => PunctualKind::Spot {
+                    inner_cone_angle: inner_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2),
+                    outer_cone_angle: outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2),
+                },
+            };
+            let direction = (rotation * DVec3::NEG_Z).try_normalize().unwrap_or(DVec3::NEG_Z);
+            scene.lights.push(PunctualLight {
+                name: light.name().map(str::to_owned).unwrap_or_else(|| format!("light {}", light.index())),
+                kind,
+                intensity,
+                position: translation,
+                direction,
+            });
+        }
+        for child in node.children().collect::<Vec<_>>().into_iter().rev() {
+            stack.push((child, world, depth + 1));
+        }
+    }
+
+    if stats.skipped_modes > 0 {
+        warnings.push(format!("skipped {} point/line primitive(s)", stats.skipped_modes));
+    }
+    if stats.degenerate > 0 {
+        warnings.push(format!("dropped {} zero-area triangle(s)", stats.degenerate));
+    }
+    if stats.bad_normals > 0 {
+        warnings.push(format!(
+            "{} vertex normal(s) were zero or not finite; those triangles use their geometric normal",
+            stats.bad_normals
+        ));
+    }
+    if scene.triangle_count() == 0 {
+        return Err(err("the scene has no triangles to render".into()));
+    }
+    Ok((scene, warnings))
+}
+
+#[derive(Default)]
+struct LoadStats {
+    skipped_modes: usize,
+    degenerate: usize,
+    bad_normals: usize,
+}
+
+/// The JSON document as a generic value, for reading node transforms at full precision.
+fn raw_json_value(bytes: &[u8]) -> std::result::Result<serde_json::Value, String> {
+    if bytes.starts_with(b"glTF") {
+        let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| e.to_string())?;
+        serde_json::from_slice(&glb.json).map_err(|e| e.to_string())
+    } else {
+        serde_json::from_slice(bytes).map_err(|e| e.to_string())
+    }
+}
+
+fn f64_array<const N: usize>(v: Option<&serde_json::Value>, default: [f64; N], what: &str) -> std::result::Result<[f64; N], String> {
+    let Some(v) = v else { return Ok(default) };
+    let arr = v.as_array().filter(|a| a.len() == N).ok_or_else(|| format!("{what} must be an array of {N} numbers"))?;
+    let mut out = [0.0; N];
+    for (o, x) in out.iter_mut().zip(arr) {
+        *o = x.as_f64().ok_or_else(|| format!("{what} must contain numbers"))?;
+    }
+    Ok(out)
+}
+
+/// A node's local transform in f64: `matrix`, or T·R·S.
+fn node_transform(root: &serde_json::Value, index: usize) -> std::result::Result<DMat4, String> {
+    let node = &root["nodes"][index];
+    if node.get("matrix").is_some() {
+        let m = f64_array::<16>(node.get("matrix"), [0.0; 16], "matrix")?;
+        return Ok(DMat4::from_cols_array(&m));
+    }
+    let t = f64_array::<3>(node.get("translation"), [0.0; 3], "translation")?;
+    let r = f64_array::<4>(node.get("rotation"), [0.0, 0.0, 0.0, 1.0], "rotation")?;
+    let s = f64_array::<3>(node.get("scale"), [1.0; 3], "scale")?;
+    let q = DQuat::from_xyzw(r[0], r[1], r[2], r[3]);
+    let q = if q.length_squared() > 0.0 { q.normalize() } else { DQuat::IDENTITY };
+    Ok(DMat4::from_scale_rotation_translation(DVec3::from(s), q, DVec3::from(t)))
+}
+
+/// Splits an affine matrix into (linear part, rotation with scale removed, translation).
+fn decompose(m: &DMat4) -> (DMat3, DMat3, DVec3) {
+    let linear = DMat3::from_mat4(*m);
+    let rotation = DMat3::from_cols(
+        linear.x_axis.try_normalize().unwrap_or(DVec3::X),
+        linear.y_axis.try_normalize().unwrap_or(DVec3::Y),
+        linear.z_axis.try_normalize().unwrap_or(DVec3::Z),
+    );
+    (linear, rotation, m.w_axis.truncate())
+}
+
+fn add_mesh(
+    scene: &mut Scene,
+    stats: &mut LoadStats,
+    buffers: &[Vec<u8>],
+    mesh: &gltf::Mesh,
+    world: &DMat4,
+    default_material: u32,
+    file: &Path,
+) -> Result<()> {
+    let linear = DMat3::from_mat4(*world);
+    let flip_winding = linear.determinant() < 0.0;
+    // Normals transform by the inverse transpose (pbrt-v4 §3.10.3).
+    let normal_matrix = linear.inverse().transpose();
+    for primitive in mesh.primitives() {
+        let what = format!(
+            "mesh {}{} primitive {}",
+            mesh.index(),
+            mesh.name().map(|n| format!(" '{n}'")).unwrap_or_default(),
+            primitive.index()
+        );
+        let err = |m: String| Error::scene(file, m);
+        let mode = primitive.mode();
+        if !matches!(
+            mode,
+            gltf::mesh::Mode::Triangles | gltf::mesh::Mode::TriangleStrip | gltf::mesh::Mode::TriangleFan
+        ) {
+            stats.skipped_modes += 1;
+            continue;
+        }
+        let pos_acc = primitive
+            .get(&gltf::Semantic::Positions)
+            .ok_or_else(|| err(format!("{what}: has no POSITION attribute")))?;
+        let positions = read_vec3(buffers, &pos_acc, &format!("{what}: POSITION")).map_err(err)?;
+        if let Some(i) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+            return Err(err(format!("{what}: POSITION (accessor {}) vertex {i} is not finite", pos_acc.index())));
+        }
+        let normals = match primitive.get(&gltf::Semantic::Normals) {
+            Some(acc) => {
+                let n = read_vec3(buffers, &acc, &format!("{what}: NORMAL")).map_err(err)?;
+                if n.len() != positions.len() {
+                    return Err(err(format!(
+                        "{what}: NORMAL has {} elements but POSITION has {}",
+                        n.len(),
+                        positions.len()
+                    )));
+                }
+                Some(n)
+            }
+            None => None,
+        };
+        let indices: Vec<u32> = match primitive.indices() {
+            Some(acc) => {
+                let idx = read_indices(buffers, &acc, &format!("{what}: indices")).map_err(err)?;
+                if let Some(bad) = idx.iter().find(|&&i| i as usize >= positions.len()) {
+                    return Err(err(format!(
+                        "{what}: index {bad} (accessor {}) is out of range for {} vertices",
+                        acc.index(),
+                        positions.len()
+                    )));
+                }
+                idx
+            }
+            None => (0..positions.len() as u32).collect(),
+        };
+        let triangles = assemble_triangles(&indices, mode);
+        let material = primitive.material().index().map(|i| i as u32).unwrap_or(default_material);
+
+        let world_positions: Vec<DVec3> = positions
+            .iter()
+            .map(|p| world.transform_point3(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)))
+            .collect();
+        let world_normals: Option<Vec<Option<Vec3>>> = normals.as_ref().map(|ns| {
+            ns.iter()
+                .map(|n| {
+                    let w = normal_matrix * DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
+                    w.try_normalize().map(|w| w.as_vec3())
+                })
+                .collect()
+        });
+        for [a, b, c] in triangles {
+            let (a, b, c) = if flip_winding { (a, c, b) } else { (a, b, c) };
+            let p = [world_positions[a as usize], world_positions[b as usize], world_positions[c as usize]];
+            if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() == 0.0 {
+                stats.degenerate += 1;
+                continue;
+            }
+            let n = world_normals.as_ref().and_then(|ns| {
+                let n = [ns[a as usize], ns[b as usize], ns[c as usize]];
+                match n {
+                    [Some(n0), Some(n1), Some(n2)] => Some([n0, n1, n2]),
+                    _ => {
+                        stats.bad_normals += 1;
+                        None
+                    }
+                }
+            });
+            scene.positions.extend_from_slice(&p);
+            scene.normals.push(n);
+            scene.triangle_materials.push(material);
+        }
+    }
+    Ok(())
+}
+
+/// Triangle vertex indices of a primitive, strips and fans expanded as glTF 2.0 §3.7.2.1
+/// defines them (strip: {i, i+1+i%2, i+2−i%2}; fan: {i+1, i+2, 0}).
+fn assemble_triangles(indices: &[u32], mode: gltf::mesh::Mode) -> Vec<[u32; 3]> {
+    match mode {
+        gltf::mesh::Mode::Triangles => indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+        gltf::mesh::Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
+            .map(|i| [indices[i], indices[i + 1 + i % 2], indices[i + 2 - i % 2]])
+            .collect(),
+        gltf::mesh::Mode::TriangleFan => (0..indices.len().saturating_sub(2))
+            .map(|i| [indices[i + 1], indices[i + 2], indices[0]])
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+fn slot(info: Option<gltf::texture::Info>) -> Option<TextureSlot> {
+    info.map(|i| TextureSlot {
+        texture: i.texture().index(),
+        tex_coord: i.tex_coord(),
+    })
+}
+
+fn read_material(m: &gltf::Material, file: &Path) -> Result<MaterialDesc> {
+    let index = m.index().unwrap_or(0);
+    let name = m.name().map(str::to_owned).unwrap_or_else(|| format!("material {index}"));
+    let err = |what: &str| Error::scene(file, format!("material {index} '{name}': {what} is not finite"));
+    let pbr = m.pbr_metallic_roughness();
+    let bc = pbr.base_color_factor();
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    let emission = Vec3::from(m.emissive_factor()) * strength;
+    if !emission.is_finite() {
+        return Err(err("emissiveFactor × emissiveStrength"));
+    }
+    let finite = |v: f32, what: &str| if v.is_finite() { Ok(v) } else { Err(err(what)) };
+    let mut desc = MaterialDesc {
+        name: name.clone(),
+        base_color: Vec3::new(bc[0], bc[1], bc[2]).clamp(Vec3::ZERO, Vec3::ONE),
+        alpha: finite(bc[3], "baseColorFactor")?.clamp(0.0, 1.0),
+        metallic: finite(pbr.metallic_factor(), "metallicFactor")?.clamp(0.0, 1.0),
+        roughness: finite(pbr.roughness_factor(), "roughnessFactor")?.clamp(0.0, 1.0),
+        emission: emission.max(Vec3::ZERO),
+        double_sided: m.double_sided(),
+        alpha_mode: match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        },
+        base_color_texture: slot(pbr.base_color_texture()),
+        metallic_roughness_texture: slot(pbr.metallic_roughness_texture()),
+        normal_texture: m.normal_texture().map(|t| TextureSlot {
+            texture: t.texture().index(),
+            tex_coord: t.tex_coord(),
+        }),
+        occlusion_texture: m.occlusion_texture().map(|t| TextureSlot {
+            texture: t.texture().index(),
+            tex_coord: t.tex_coord(),
+        }),
+        emissive_texture: slot(m.emissive_texture()),
+        ..MaterialDesc::default()
+    };
+    if !Vec3::new(bc[0], bc[1], bc[2]).is_finite() {
+        return Err(err("baseColorFactor"));
+    }
+    if let Some(ior) = m.ior() {
+        let ior = finite(ior, "ior")?;
+        // KHR_materials_ior: 0 (meaning ∞) or ≥ 1.
+        desc.ior = if ior == 0.0 { 0.0 } else { ior.max(1.0) };
+    }
+    if let Some(s) = m.specular() {
+        desc.specular_factor = finite(s.specular_factor(), "specularFactor")?.clamp(0.0, 1.0);
+        let c = Vec3::from(s.specular_color_factor());
+        if !c.is_finite() {
+            return Err(err("specularColorFactor"));
+        }
+        desc.specular_color = c.max(Vec3::ZERO);
+        desc.specular_texture = slot(s.specular_texture());
+        desc.specular_color_texture = slot(s.specular_color_texture());
+    }
+    if let Some(t) = m.transmission() {
+        desc.transmission = finite(t.transmission_factor(), "transmissionFactor")?.clamp(0.0, 1.0);
+        desc.transmission_texture = slot(t.transmission_texture());
+    }
+    if let Some(v) = m.volume() {
+        desc.thickness = finite(v.thickness_factor(), "thicknessFactor")?.max(0.0);
+        let d = v.attenuation_distance();
+        desc.attenuation_distance = if d > 0.0 { d } else { f32::INFINITY };
+        let c = Vec3::from(v.attenuation_color());
+        if !c.is_finite() {
+            return Err(err("attenuationColor"));
+        }
+        desc.attenuation_color = c.clamp(Vec3::ZERO, Vec3::ONE);
+        desc.thickness_texture = slot(v.thickness_texture());
+    }
+    Ok(desc)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeSet;
+
+    #[test]
+    fn strips_and_fans_follow_the_spec() {
+        let idx = [0, 1, 2, 3, 4];
+        assert_eq!(
+            assemble_triangles(&idx, gltf::mesh::Mode::TriangleStrip),
+            vec![[0, 1, 2], [1, 3, 2], [2, 3, 4]]
+        );
+        assert_eq!(
+            assemble_triangles(&idx, gltf::mesh::Mode::TriangleFan),
+            vec![[1, 2, 0], [2, 3, 0], [3, 4, 0]]
+        );
+        assert_eq!(assemble_triangles(&idx, gltf::mesh::Mode::Triangles), vec![[0, 1, 2]]);
+    }
+
+    /// Checks the collection of unique names used in warnings is stable.
+    #[test]
+    fn supported_extensions_are_sorted_and_unique() {
+        let set: BTreeSet<_> = SUPPORTED_EXTENSIONS.iter().collect();
+        assert_eq!(set.len(), SUPPORTED_EXTENSIONS.len());
+    }
+}

@@ -1,0 +1,163 @@
+//! Materials as the glTF file describes them, and their reduction to the kernel's
+//! [`Material`](crate::gpu::layout::Material).
+
+use glam::Vec3;
+
+use crate::bsdf::alpha_from_roughness;
+use crate::gpu::layout::{self, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
+
+/// A texture reference (glTF `textureInfo`). Textures are loaded by a later stage; the slot
+/// is kept so that the loader records everything the file asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureSlot {
+    /// Index into the glTF `textures` array.
+    pub texture: usize,
+    /// Which `TEXCOORD_n` set it reads.
+    pub tex_coord: u32,
+}
+
+/// How the glTF `alphaMode` asks for coverage to be treated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AlphaMode {
+    Opaque,
+    Mask,
+    Blend,
+}
+
+/// One glTF material with the extensions pathlight supports, factors sanitised.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialDesc {
+    pub name: String,
+    pub base_color: Vec3,
+    pub alpha: f32,
+    pub metallic: f32,
+    pub roughness: f32,
+    /// `emissiveFactor × KHR_materials_emissive_strength.emissiveStrength`.
+    pub emission: Vec3,
+    pub double_sided: bool,
+    pub alpha_mode: AlphaMode,
+    /// KHR_materials_ior (1.5 when absent).
+    pub ior: f32,
+    /// KHR_materials_specular (1 and white when absent).
+    pub specular_factor: f32,
+    pub specular_color: Vec3,
+    /// KHR_materials_transmission (0 when absent).
+    pub transmission: f32,
+    /// KHR_materials_volume `thicknessFactor` (0: thin-walled).
+    pub thickness: f32,
+    pub attenuation_distance: f32,
+    pub attenuation_color: Vec3,
+    pub base_color_texture: Option<TextureSlot>,
+    pub metallic_roughness_texture: Option<TextureSlot>,
+    pub normal_texture: Option<TextureSlot>,
+    pub occlusion_texture: Option<TextureSlot>,
+    pub emissive_texture: Option<TextureSlot>,
+    pub transmission_texture: Option<TextureSlot>,
+    pub specular_texture: Option<TextureSlot>,
+    pub specular_color_texture: Option<TextureSlot>,
+    pub thickness_texture: Option<TextureSlot>,
+}
+
+impl Default for MaterialDesc {
+    /// The glTF default material (spec §3.9.6): white, fully metallic, fully rough.
+    fn default() -> Self {
+        MaterialDesc {
+            name: "default".into(),
+            base_color: Vec3::ONE,
+            alpha: 1.0,
+            metallic: 1.0,
+            roughness: 1.0,
+            emission: Vec3::ZERO,
+            double_sided: false,
+            alpha_mode: AlphaMode::Opaque,
+            ior: 1.5,
+            specular_factor: 1.0,
+            specular_color: Vec3::ONE,
+            transmission: 0.0,
+            thickness: 0.0,
+            attenuation_distance: f32::INFINITY,
+            attenuation_color: Vec3::ONE,
+            base_color_texture: None,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            occlusion_texture: None,
+            emissive_texture: None,
+            transmission_texture: None,
+            specular_texture: None,
+            specular_color_texture: None,
+            thickness_texture: None,
+        }
+    }
+}
+
+/// KHR_materials_ior allows `ior = 0` to mean "infinite" (full specular reflection, for
+/// specular-glossiness conversions); this finite stand-in gives F₀ = 0.9996.
+const IOR_INFINITE_STANDIN: f32 = 1e4;
+
+impl MaterialDesc {
+    /// Does the material refer to any texture?
+    pub fn uses_textures(&self) -> bool {
+        [
+            &self.base_color_texture,
+            &self.metallic_roughness_texture,
+            &self.normal_texture,
+            &self.occlusion_texture,
+            &self.emissive_texture,
+            &self.transmission_texture,
+            &self.specular_texture,
+            &self.specular_color_texture,
+            &self.thickness_texture,
+        ]
+        .iter()
+        .any(|t| t.is_some())
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+
+    /// A refracting solid (KHR_materials_volume with thickness > 0 on a transmissive
+    /// material); otherwise transmission is thin-walled.
+    pub fn is_volume(&self) -> bool {
+        self.thickness > 0.0 && self.transmission > 0.0
+    }
+
+    /// The kernel's view of this material.
+    pub fn to_gpu(&self) -> layout::Material {
+        let ior = if self.ior == 0.0 {
+            IOR_INFINITE_STANDIN
+        } else {
+            self.ior
+        };
+        // Beer–Lambert: transmittance over distance d is attenuationColor^(d / distance),
+        // i.e. exp(−σₐ d) with σₐ = −ln(c) / distance (KHR_materials_volume). A colour of 0 is
+        // clamped so σₐ stays finite (1e-6 per attenuation distance is already black).
+        let sigma = if self.attenuation_distance.is_finite() && self.is_volume() {
+            let c = self.attenuation_color.clamp(Vec3::splat(1e-6), Vec3::ONE);
+            Vec3::new(-c.x.ln(), -c.y.ln(), -c.z.ln()) / self.attenuation_distance
+        } else {
+            Vec3::ZERO
+        };
+        let mut flags = 0;
+        if self.double_sided {
+            flags |= MATERIAL_DOUBLE_SIDED;
+        }
+        if self.is_volume() {
+            flags |= MATERIAL_VOLUME;
+        }
+        layout::Material {
+            base_color: self.base_color.to_array(),
+            alpha: self.alpha,
+            emission: self.emission.to_array(),
+            flags,
+            specular_color: self.specular_color.to_array(),
+            specular_factor: self.specular_factor,
+            attenuation_coefficient: sigma.to_array(),
+            ior,
+            metallic: self.metallic,
+            alpha_roughness: alpha_from_roughness(self.roughness),
+            transmission: self.transmission,
+            _pad0: 0.0,
+        }
+    }
+}
