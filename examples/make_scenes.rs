@@ -43,7 +43,8 @@ impl Gltf {
         }
         let offset = self.buffer.len();
         self.buffer.extend_from_slice(bytes);
-        self.views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target}));
         self.views.len() - 1
     }
 
@@ -63,7 +64,9 @@ impl Gltf {
     fn index_accessor(&mut self, indices: &[u32]) -> usize {
         let bytes: Vec<u8> = indices.iter().flat_map(|v| v.to_le_bytes()).collect();
         let view = self.push_view(&bytes, 34963);
-        self.accessors.push(json!({"bufferView": view, "componentType": 5125, "count": indices.len(), "type": "SCALAR"}));
+        self.accessors.push(
+            json!({"bufferView": view, "componentType": 5125, "count": indices.len(), "type": "SCALAR"}),
+        );
         self.accessors.len() - 1
     }
 
@@ -98,7 +101,9 @@ impl Gltf {
     }
 
     fn perspective_camera(&mut self, name: &str, yfov: f64, translation: [f64; 3], rotation: [f64; 4]) {
-        self.cameras.push(json!({"type": "perspective", "perspective": {"yfov": yfov, "aspectRatio": 1.0, "znear": 0.01}}));
+        self.cameras.push(
+            json!({"type": "perspective", "perspective": {"yfov": yfov, "aspectRatio": 1.0, "znear": 0.01}}),
+        );
         self.nodes.push(json!({"name": name, "camera": self.cameras.len() - 1, "translation": translation, "rotation": rotation}));
     }
 
@@ -187,24 +192,54 @@ impl Mesh {
     fn icosphere(center: [f64; 3], radius: f64, level: u32, inward: bool, smooth: bool) -> Mesh {
         let t = (1.0 + 5f64.sqrt()) / 2.0;
         let mut verts: Vec<[f64; 3]> = [
-            [-1.0, t, 0.0], [1.0, t, 0.0], [-1.0, -t, 0.0], [1.0, -t, 0.0],
-            [0.0, -1.0, t], [0.0, 1.0, t], [0.0, -1.0, -t], [0.0, 1.0, -t],
-            [t, 0.0, -1.0], [t, 0.0, 1.0], [-t, 0.0, -1.0], [-t, 0.0, 1.0],
+            [-1.0, t, 0.0],
+            [1.0, t, 0.0],
+            [-1.0, -t, 0.0],
+            [1.0, -t, 0.0],
+            [0.0, -1.0, t],
+            [0.0, 1.0, t],
+            [0.0, -1.0, -t],
+            [0.0, 1.0, -t],
+            [t, 0.0, -1.0],
+            [t, 0.0, 1.0],
+            [-t, 0.0, -1.0],
+            [-t, 0.0, 1.0],
         ]
         .iter()
         .map(|v| normalize(*v))
         .collect();
         let mut faces: Vec<[u32; 3]> = vec![
-            [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
-            [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
-            [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
         ];
         for _ in 0..level {
             let mut cache = std::collections::HashMap::new();
             let mut mid = |a: u32, b: u32, verts: &mut Vec<[f64; 3]>| -> u32 {
                 *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
                     let (va, vb) = (verts[a as usize], verts[b as usize]);
-                    verts.push(normalize([(va[0] + vb[0]) / 2.0, (va[1] + vb[1]) / 2.0, (va[2] + vb[2]) / 2.0]));
+                    verts.push(normalize([
+                        (va[0] + vb[0]) / 2.0,
+                        (va[1] + vb[1]) / 2.0,
+                        (va[2] + vb[2]) / 2.0,
+                    ]));
                     verts.len() as u32 - 1
                 })
             };
@@ -218,11 +253,17 @@ impl Mesh {
             faces = next;
         }
         let mut mesh = Mesh {
-            positions: verts.iter().map(|v| f32x3([center[0] + radius * v[0], center[1] + radius * v[1], center[2] + radius * v[2]])).collect(),
+            positions: verts
+                .iter()
+                .map(|v| {
+                    f32x3([center[0] + radius * v[0], center[1] + radius * v[1], center[2] + radius * v[2]])
+                })
+                .collect(),
             ..Mesh::default()
         };
         if smooth {
-            mesh.normals = verts.iter().map(|v| f32x3(if inward { [-v[0], -v[1], -v[2]] } else { *v })).collect();
+            mesh.normals =
+                verts.iter().map(|v| f32x3(if inward { [-v[0], -v[1], -v[2]] } else { *v })).collect();
         }
         for [a, b, c] in faces {
             mesh.indices.extend(if inward { [a, c, b] } else { [a, b, c] });
@@ -305,13 +346,19 @@ fn cornell(g: &mut Gltf, with_blocks: bool) {
     }
     g.mesh("white walls", &walls, white);
     let mut left = Mesh::default();
-    left.quad([[552.8, 0.0, 0.0], [549.6, 0.0, 559.2], [556.0, 548.8, 559.2], [556.0, 548.8, 0.0]].map(mm), inside);
+    left.quad(
+        [[552.8, 0.0, 0.0], [549.6, 0.0, 559.2], [556.0, 548.8, 559.2], [556.0, 548.8, 0.0]].map(mm),
+        inside,
+    );
     g.mesh("red wall", &left, red);
     let mut right = Mesh::default();
     right.quad([[0.0, 0.0, 559.2], [0.0, 0.0, 0.0], [0.0, 548.8, 0.0], [0.0, 548.8, 559.2]].map(mm), inside);
     g.mesh("green wall", &right, green);
     let mut lamp = Mesh::default();
-    lamp.quad([[343.0, 548.3, 227.0], [343.0, 548.3, 332.0], [213.0, 548.3, 332.0], [213.0, 548.3, 227.0]].map(mm), mm([278.0, 0.0, 279.6]));
+    lamp.quad(
+        [[343.0, 548.3, 227.0], [343.0, 548.3, 332.0], [213.0, 548.3, 332.0], [213.0, 548.3, 227.0]].map(mm),
+        mm([278.0, 0.0, 279.6]),
+    );
     g.mesh("light", &lamp, light);
 
     if with_blocks {
@@ -371,7 +418,10 @@ fn main() {
 
     let mut g = Gltf::default();
     cornell(&mut g, true);
-    g.write(&dir.join("cornell-box.gltf"), "The Cornell box (measured geometry), diffuse walls, area light under the ceiling");
+    g.write(
+        &dir.join("cornell-box.gltf"),
+        "The Cornell box (measured geometry), diffuse walls, area light under the ceiling",
+    );
 
     furnace(&dir.join("furnace-0.5.gltf"), 0.5);
     furnace(&dir.join("furnace-0.9.gltf"), 0.9);
@@ -386,7 +436,10 @@ fn main() {
     g.mesh("gold sphere", &Mesh::icosphere([0.39, 0.1, 0.35], 0.1, 3, false, true), gold);
     g.mesh("silver sphere", &Mesh::icosphere([0.17, 0.1, 0.25], 0.1, 3, false, true), silver);
     g.mesh("plastic sphere", &Mesh::icosphere([0.28, 0.3, 0.42], 0.08, 3, false, true), blue);
-    g.write(&dir.join("glossy-metal.gltf"), "Rough and polished metal and glossy plastic spheres in the Cornell room");
+    g.write(
+        &dir.join("glossy-metal.gltf"),
+        "Rough and polished metal and glossy plastic spheres in the Cornell room",
+    );
 
     // Smooth glass: a refracting solid sphere with Beer–Lambert absorption, and a thin-walled
     // pane, both perfectly smooth (delta lobes).
@@ -398,7 +451,10 @@ fn main() {
     let mut pane = Mesh::default();
     pane.quad([[0.08, 0.0, 0.45], [0.2, 0.0, 0.45], [0.2, 0.3, 0.45], [0.08, 0.3, 0.45]], [0.14, 0.15, -1.0]);
     g.mesh("glass pane", &pane, thin);
-    g.write(&dir.join("glass-smooth.gltf"), "Smooth glass: a tinted refracting sphere and a thin-walled pane in the Cornell room");
+    g.write(
+        &dir.join("glass-smooth.gltf"),
+        "Smooth glass: a tinted refracting sphere and a thin-walled pane in the Cornell room",
+    );
 
     // Rough glass: the same objects frosted.
     let mut g = Gltf::default();
@@ -409,7 +465,10 @@ fn main() {
     let mut pane = Mesh::default();
     pane.quad([[0.08, 0.0, 0.45], [0.2, 0.0, 0.45], [0.2, 0.3, 0.45], [0.08, 0.3, 0.45]], [0.14, 0.15, -1.0]);
     g.mesh("glass pane", &pane, thin);
-    g.write(&dir.join("glass-rough.gltf"), "Rough glass: a frosted refracting sphere and a frosted thin pane in the Cornell room");
+    g.write(
+        &dir.join("glass-rough.gltf"),
+        "Rough glass: a frosted refracting sphere and a frosted thin pane in the Cornell room",
+    );
 
     // Punctual lights only: point, spot and directional lights over a floor and wall.
     let mut g = Gltf::default();
@@ -422,7 +481,11 @@ fn main() {
     g.mesh("floor and wall", &room, white);
     g.mesh("red sphere", &Mesh::icosphere([-0.45, 0.35, 0.0], 0.35, 3, false, true), red);
     g.mesh("steel sphere", &Mesh::icosphere([0.45, 0.3, 0.2], 0.3, 3, false, true), steel);
-    g.light(json!({"type": "point", "color": [1.0, 0.9, 0.8], "intensity": 2.0}), [0.0, 1.4, 0.8], [0.0, 0.0, 0.0, 1.0]);
+    g.light(
+        json!({"type": "point", "color": [1.0, 0.9, 0.8], "intensity": 2.0}),
+        [0.0, 1.4, 0.8],
+        [0.0, 0.0, 0.0, 1.0],
+    );
     // Spot pointing straight down (−Z rotated to −Y: +90° about X).
     let h = (PI / 4.0).sin();
     g.light(
@@ -431,7 +494,11 @@ fn main() {
         [-h, 0.0, 0.0, h],
     );
     // Directional light from the upper left, travelling down and back.
-    g.light(json!({"type": "directional", "color": [1.0, 1.0, 1.0], "intensity": 0.5}), [0.0, 0.0, 0.0], [-0.3, -0.3, 0.0, 0.905_538_5]);
+    g.light(
+        json!({"type": "directional", "color": [1.0, 1.0, 1.0], "intensity": 0.5}),
+        [0.0, 0.0, 0.0],
+        [-0.3, -0.3, 0.0, 0.905_538_5],
+    );
     g.perspective_camera("camera", 45f64.to_radians(), [0.0, 0.9, 2.6], [-0.12, 0.0, 0.0, 0.992_774_4]);
     g.write(&dir.join("punctual.gltf"), "Point, spot and directional lights only (no emissive surfaces)");
 }

@@ -28,24 +28,15 @@ pub enum Error {
 
 impl Error {
     pub fn scene(file: &Path, message: impl Into<String>) -> Error {
-        Error::Scene {
-            file: file.display().to_string(),
-            message: message.into(),
-        }
+        Error::Scene { file: file.display().to_string(), message: message.into() }
     }
 
     pub fn io(file: &Path, source: std::io::Error) -> Error {
-        Error::Io {
-            file: file.display().to_string(),
-            source,
-        }
+        Error::Io { file: file.display().to_string(), source }
     }
 
     pub fn output(file: &Path, message: impl Into<String>) -> Error {
-        Error::Output {
-            file: file.display().to_string(),
-            message: message.into(),
-        }
+        Error::Output { file: file.display().to_string(), message: message.into() }
     }
 }
 

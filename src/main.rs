@@ -13,7 +13,11 @@ use pathlight::scene::{FlatScene, ViewSettings};
 use pathlight::{Backend, Error, RenderSettings};
 
 #[derive(Parser)]
-#[command(name = "pathlight", version, about = "A physically based Monte Carlo path tracer (GPU megakernel on Vulkan, CPU reference)")]
+#[command(
+    name = "pathlight",
+    version,
+    about = "A physically based Monte Carlo path tracer (GPU megakernel on Vulkan, CPU reference)"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -123,10 +127,7 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         None => scene.cameras.first().and_then(|c| c.aspect_ratio()),
     };
     let (width, height) = image_size(args.width, args.height, camera_aspect);
-    let view = ViewSettings {
-        camera: args.camera,
-        aspect: width as f64 / height as f64,
-    };
+    let view = ViewSettings { camera: args.camera, aspect: width as f64 / height as f64 };
     let flat = FlatScene::build(&scene, &view)?;
     eprintln!(
         "{}: {} triangles, {} lights, BVH {} nodes built in {:.3} s (SAH cost {:.2}), features: {}",
@@ -159,15 +160,21 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
             if stop.swap(true, Ordering::SeqCst) {
                 std::process::exit(130);
             }
-            eprintln!("\ninterrupted: finishing the current pass and writing the image (Ctrl-C again to abort)");
+            eprintln!(
+                "\ninterrupted: finishing the current pass and writing the image (Ctrl-C again to abort)"
+            );
         });
     }
     let bar = ProgressBar::new(args.spp as u64);
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} spp  {elapsed_precise} elapsed  ETA {eta_precise}")
-            .expect("static template"),
+        ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} spp  {elapsed_precise} elapsed  ETA {eta_precise}",
+        )
+        .expect("static template"),
     );
-    let stats = pathlight::render_progressive(backend.as_mut(), args.spp, &stop, |done| bar.set_position(done as u64))?;
+    let stats = pathlight::render_progressive(backend.as_mut(), args.spp, &stop, |done| {
+        bar.set_position(done as u64)
+    })?;
     bar.finish_and_clear();
     let film = backend.film()?;
     let rejected = film.total_rejected();

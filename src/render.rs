@@ -23,14 +23,7 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings {
-            width: 512,
-            height: 512,
-            spp: 64,
-            seed: 0,
-            max_depth: None,
-            rr_min_depth: 3,
-        }
+        RenderSettings { width: 512, height: 512, spp: 64, seed: 0, max_depth: None, rr_min_depth: 3 }
     }
 }
 
@@ -59,17 +52,18 @@ const TARGET_PASS_SECONDS: f64 = 0.5;
 
 /// Renders `spp` samples per pixel in progressive passes. `progress(done)` is called after
 /// each pass; when `stop` becomes true the loop ends after the pass in flight.
-pub fn render_progressive(backend: &mut dyn Backend, spp: u32, stop: &AtomicBool, mut progress: impl FnMut(u32)) -> Result<RenderStats> {
+pub fn render_progressive(
+    backend: &mut dyn Backend,
+    spp: u32,
+    stop: &AtomicBool,
+    mut progress: impl FnMut(u32),
+) -> Result<RenderStats> {
     let start = Instant::now();
     let mut done = 0u32;
     let mut pass = 1u32;
     while done < spp {
         if stop.load(Ordering::Relaxed) {
-            return Ok(RenderStats {
-                spp: done,
-                seconds: start.elapsed().as_secs_f64(),
-                interrupted: true,
-            });
+            return Ok(RenderStats { spp: done, seconds: start.elapsed().as_secs_f64(), interrupted: true });
         }
         let n = pass.min(spp - done);
         let t = Instant::now();
@@ -81,9 +75,5 @@ pub fn render_progressive(backend: &mut dyn Backend, spp: u32, stop: &AtomicBool
         let ideal = if per_sample > 0.0 { TARGET_PASS_SECONDS / per_sample } else { f64::MAX };
         pass = (ideal as u32).clamp(1, pass.saturating_mul(2));
     }
-    Ok(RenderStats {
-        spp: done,
-        seconds: start.elapsed().as_secs_f64(),
-        interrupted: false,
-    })
+    Ok(RenderStats { spp: done, seconds: start.elapsed().as_secs_f64(), interrupted: false })
 }

@@ -133,28 +133,33 @@ pub struct Chi2Result {
     pub p_value: f64,
     /// Cells merged because their expected count was small.
     pub pooled_cells: usize,
+    /// Observations in cells whose expected count is exactly zero. A numerically integrated
+    /// density can miss a sliver of its support (a triangle edge crossing a cell), so these
+    /// are pooled rather than failing outright; callers bound this count, which a sampler
+    /// that puts real mass where its density is zero would blow up.
+    pub observed_where_expected_zero: f64,
 }
 
 /// Pearson's chi-square test of observed against expected counts. Cells whose expected count
 /// is below `min_expected` are pooled into one (as pbrt-v4's and Mitsuba 3's tests do), since
-/// the χ² approximation needs enough expected mass per cell. Any observation in a cell with
-/// zero expected mass fails the test outright (p = 0).
+/// the χ² approximation needs enough expected mass per cell. Observations in cells with zero
+/// expected mass are pooled too and counted in
+/// [`Chi2Result::observed_where_expected_zero`]; if the pool has no expected mass at all but
+/// holds observations, the test fails outright (p = 0).
 pub fn chi2_test(observed: &[f64], expected: &[f64], min_expected: f64) -> Chi2Result {
     assert_eq!(observed.len(), expected.len());
     let mut order: Vec<usize> = (0..expected.len()).collect();
     order.sort_by(|&a, &b| expected[a].total_cmp(&expected[b]));
     let (mut pool_obs, mut pool_exp, mut pooled) = (0.0, 0.0, 0);
     let (mut chi2, mut cells) = (0.0, 0usize);
+    let mut observed_where_expected_zero = 0.0;
     for &i in &order {
-        if expected[i] == 0.0 && observed[i] > 0.0 {
-            return Chi2Result {
-                chi2: f64::INFINITY,
-                dof: 0,
-                p_value: 0.0,
-                pooled_cells: 0,
-            };
+        if expected[i] == 0.0 {
+            observed_where_expected_zero += observed[i];
         }
-        if pool_exp < min_expected && expected[i] < min_expected {
+        // Cells in ascending order of expectation: pool every small cell, and keep pooling
+        // until the pool itself has enough expected mass.
+        if pool_exp < min_expected || expected[i] < min_expected {
             pool_obs += observed[i];
             pool_exp += expected[i];
             pooled += 1;
@@ -172,6 +177,7 @@ pub fn chi2_test(observed: &[f64], expected: &[f64], min_expected: f64) -> Chi2R
             dof: 0,
             p_value: 0.0,
             pooled_cells: pooled,
+            observed_where_expected_zero,
         };
     }
     let dof = cells.saturating_sub(1).max(1);
@@ -180,6 +186,7 @@ pub fn chi2_test(observed: &[f64], expected: &[f64], min_expected: f64) -> Chi2R
         dof,
         p_value: chi2_survival(chi2, dof as f64),
         pooled_cells: pooled,
+        observed_where_expected_zero,
     }
 }
 

@@ -31,11 +31,13 @@ use glam::{Vec2, Vec3};
 use super::fresnel::{fresnel_dielectric, fresnel_schlick};
 use super::lambert::{lambert_eval, lambert_pdf, lambert_sample};
 use super::reflection::{reflection_eval, reflection_half_vector, reflection_pdf, reflection_sample};
+use super::refract;
 use super::thin_transmission::{
     thin_transmission_eval, thin_transmission_half_vector, thin_transmission_pdf, thin_transmission_sample,
 };
-use super::transmission::{transmission_eval, transmission_half_vector, transmission_pdf, transmission_sample};
-use super::refract;
+use super::transmission::{
+    transmission_eval, transmission_half_vector, transmission_pdf, transmission_sample,
+};
 use crate::gpu::layout::{Material, MATERIAL_VOLUME};
 
 /// Every lobe that can contribute is chosen with at least this (unnormalised) weight, so
@@ -130,7 +132,9 @@ impl GltfBsdf {
     /// F_d at `cos_theta` = |wo·h| (see the module comment).
     pub fn dielectric_fresnel(&self, cos_theta: f32) -> Vec3 {
         if self.transmission > 0.0 {
-            self.specular_factor * self.specular_color.min(Vec3::ONE) * fresnel_dielectric(cos_theta, self.eta)
+            self.specular_factor
+                * self.specular_color.min(Vec3::ONE)
+                * fresnel_dielectric(cos_theta, self.eta)
         } else {
             fresnel_schlick(self.f0_dielectric, self.specular_factor, cos_theta)
         }
@@ -255,15 +259,10 @@ impl GltfBsdf {
             }
         };
         let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         let f = self.eval(wo, wi);
-        Some(BsdfSample {
-            wi,
-            weight: f * wi.z.abs() / pdf,
-            pdf_solid_angle: pdf,
-            is_delta: false,
-        })
+        Some(BsdfSample { wi, weight: f * wi.z.abs() / pdf, pdf_solid_angle: pdf, is_delta: false })
     }
 }

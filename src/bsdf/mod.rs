@@ -15,7 +15,7 @@ pub mod reflection;
 pub mod thin_transmission;
 pub mod transmission;
 
-pub use gltf::{GltfBsdf, BsdfSample, LOBE_SELECTION_FLOOR};
+pub use gltf::{BsdfSample, GltfBsdf, LOBE_SELECTION_FLOOR};
 
 /// Smallest GGX α used for a non-zero roughness. GGX's normalisation has α⁴ in its
 /// denominator; below α ≈ 1e-4 that underflows f32 (and GPUs flush denormals), so rougher

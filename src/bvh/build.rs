@@ -52,16 +52,8 @@ struct Primitive {
 }
 
 enum BuildNode {
-    Leaf {
-        bounds: Aabb,
-        first: usize,
-        count: usize,
-    },
-    Interior {
-        bounds: Aabb,
-        axis: usize,
-        children: Box<[BuildNode; 2]>,
-    },
+    Leaf { bounds: Aabb, first: usize, count: usize },
+    Interior { bounds: Aabb, axis: usize, children: Box<[BuildNode; 2]> },
 }
 
 impl BuildNode {
@@ -81,20 +73,13 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
         .enumerate()
         .map(|(i, t)| {
             let bounds = Aabb::from_point(t[0]).grow(t[1]).grow(t[2]);
-            Primitive {
-                bounds,
-                centroid: bounds.centroid(),
-                index: i as u32,
-            }
+            Primitive { bounds, centroid: bounds.centroid(), index: i as u32 }
         })
         .collect();
     let root = build_recursive(&mut prims, 0, 1);
     let order: Vec<u32> = prims.iter().map(|p| p.index).collect();
     let mut nodes = Vec::with_capacity(2 * triangles.len());
-    let mut stats = BvhStats {
-        triangles: triangles.len(),
-        ..Default::default()
-    };
+    let mut stats = BvhStats { triangles: triangles.len(), ..Default::default() };
     let root_area = root.bounds().surface_area().max(f32::MIN_POSITIVE) as f64;
     flatten(&root, &mut nodes, 1, root_area, &mut stats);
     stats.nodes = nodes.len();
@@ -139,16 +124,9 @@ fn build_recursive(prims: &mut [Primitive], offset: usize, depth: usize) -> Buil
             || build_recursive(right, offset + mid, depth + 1),
         )
     } else {
-        (
-            build_recursive(left, offset, depth + 1),
-            build_recursive(right, offset + mid, depth + 1),
-        )
+        (build_recursive(left, offset, depth + 1), build_recursive(right, offset + mid, depth + 1))
     };
-    BuildNode::Interior {
-        bounds,
-        axis,
-        children: Box::new([l, r]),
-    }
+    BuildNode::Interior { bounds, axis, children: Box::new([l, r]) }
 }
 
 fn median_split(prims: &mut [Primitive], axis: usize) -> usize {
@@ -219,16 +197,18 @@ fn sah_split(prims: &mut [Primitive], bounds: &Aabb, axis: usize, c_min: f32, c_
 }
 
 /// Appends `node` and its subtree depth-first; returns the node's index.
-fn flatten(node: &BuildNode, out: &mut Vec<BvhNode>, depth: usize, root_area: f64, stats: &mut BvhStats) -> usize {
+fn flatten(
+    node: &BuildNode,
+    out: &mut Vec<BvhNode>,
+    depth: usize,
+    root_area: f64,
+    stats: &mut BvhStats,
+) -> usize {
     let index = out.len();
     let b = node.bounds();
     let rel_area = b.surface_area() as f64 / root_area;
     stats.max_depth = stats.max_depth.max(depth);
-    out.push(BvhNode {
-        bounds_min: b.min.to_array(),
-        bounds_max: b.max.to_array(),
-        ..Default::default()
-    });
+    out.push(BvhNode { bounds_min: b.min.to_array(), bounds_max: b.max.to_array(), ..Default::default() });
     match node {
         BuildNode::Leaf { first, count, .. } => {
             stats.leaves += 1;

@@ -14,7 +14,9 @@ use glam::Vec3;
 use crate::bsdf::GltfBsdf;
 use crate::bvh::{intersect_any, intersect_closest, ClosestHit};
 use crate::geometry::{spawn_ray, triangle_error_bound, Frame, Ray};
-use crate::gpu::layout::{FirstHit, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, TRIANGLE_HAS_NORMALS};
+use crate::gpu::layout::{
+    FirstHit, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, TRIANGLE_HAS_NORMALS,
+};
 use crate::light::{sample_light, triangle_light_pdf};
 use crate::sampling::{power_heuristic, Rng};
 use crate::scene::{oct_decode, FlatScene};
@@ -38,10 +40,7 @@ pub struct IntegratorSettings {
 
 impl Default for IntegratorSettings {
     fn default() -> Self {
-        IntegratorSettings {
-            max_depth: u32::MAX,
-            rr_min_depth: 3,
-        }
+        IntegratorSettings { max_depth: u32::MAX, rr_min_depth: 3 }
     }
 }
 
@@ -115,8 +114,7 @@ pub fn radiance(scene: &FlatScene, settings: &IntegratorSettings, mut ray: Ray, 
     let mut depth = 0u32;
     let mut prev_delta = true;
     let mut prev_pdf = 0.0f32;
-    loop {
-        let Some(hit) = intersect_closest(&scene.nodes, &scene.triangles, &ray) else { break };
+    while let Some(hit) = intersect_closest(&scene.nodes, &scene.triangles, &ray) {
         let si = surface_interaction(scene, &ray, &hit);
         let material = &scene.materials[si.material as usize];
 
@@ -150,7 +148,9 @@ pub fn radiance(scene: &FlatScene, settings: &IntegratorSettings, mut ray: Ray, 
         if bsdf.has_non_delta() && !scene.lights.is_empty() {
             let u_select = rng.next_2d();
             let u_light = rng.next_2d();
-            if let Some(ls) = sample_light(scene.light_arrays(), si.p, si.p_error, si.n_geometric, u_select, u_light) {
+            if let Some(ls) =
+                sample_light(scene.light_arrays(), si.p, si.p_error, si.n_geometric, u_select, u_light)
+            {
                 let wi = si.frame.to_local(ls.wi);
                 let f = bsdf.eval(si.wo, wi);
                 if f.max_element() > 0.0 && !intersect_any(&scene.nodes, &scene.triangles, &ls.shadow_ray) {
@@ -179,7 +179,7 @@ pub fn radiance(scene: &FlatScene, settings: &IntegratorSettings, mut ray: Ray, 
         // Russian roulette (unbiased: survivors are divided by the survival probability).
         if depth >= settings.rr_min_depth {
             let q = beta.max_element().min(RR_MAX_SURVIVAL);
-            if !(q > 0.0) || rng.next_1d() >= q {
+            if q.is_nan() || q <= 0.0 || rng.next_1d() >= q {
                 break;
             }
             beta /= q;
@@ -206,9 +206,6 @@ pub fn first_hit(scene: &FlatScene, width: u32, height: u32, x: u32, y: u32, see
                 triangle: hit.triangle,
             }
         }
-        None => FirstHit {
-            triangle: INVALID_INDEX,
-            ..Default::default()
-        },
+        None => FirstHit { triangle: INVALID_INDEX, ..Default::default() },
     }
 }

@@ -5,5 +5,7 @@
 mod integrator;
 mod renderer;
 
-pub use integrator::{first_hit, radiance, surface_interaction, IntegratorSettings, SurfaceInteraction, MAX_BOUNCES_GUARD};
+pub use integrator::{
+    first_hit, radiance, surface_interaction, IntegratorSettings, SurfaceInteraction, MAX_BOUNCES_GUARD,
+};
 pub use renderer::CpuBackend;

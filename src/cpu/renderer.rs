@@ -19,11 +19,7 @@ pub struct CpuBackend<'a> {
 
 impl<'a> CpuBackend<'a> {
     pub fn new(scene: &'a FlatScene, settings: &RenderSettings) -> CpuBackend<'a> {
-        CpuBackend {
-            scene,
-            settings: settings.clone(),
-            film: Film::new(settings.width, settings.height),
-        }
+        CpuBackend { scene, settings: settings.clone(), film: Film::new(settings.width, settings.height) }
     }
 }
 
@@ -36,24 +32,19 @@ impl Backend for CpuBackend<'_> {
         let scene = self.scene;
         let s = &self.settings;
         let (width, height, seed) = (s.width, s.height, s.seed);
-        let integrator = IntegratorSettings {
-            max_depth: s.max_depth.unwrap_or(u32::MAX),
-            rr_min_depth: s.rr_min_depth,
-        };
-        self.film
-            .pixels
-            .par_chunks_mut(width as usize)
-            .enumerate()
-            .for_each(|(y, row)| {
-                for (x, pixel) in row.iter_mut().enumerate() {
-                    for k in sample_offset..sample_offset + samples {
-                        let mut rng = Rng::new(x as u32, y as u32, k, seed);
-                        let ray = generate_camera_ray(&scene.camera, width, height, x as u32, y as u32, rng.next_2d());
-                        let l = radiance(scene, &integrator, ray, &mut rng);
-                        film_add_sample(pixel, l);
-                    }
+        let integrator =
+            IntegratorSettings { max_depth: s.max_depth.unwrap_or(u32::MAX), rr_min_depth: s.rr_min_depth };
+        self.film.pixels.par_chunks_mut(width as usize).enumerate().for_each(|(y, row)| {
+            for (x, pixel) in row.iter_mut().enumerate() {
+                for k in sample_offset..sample_offset + samples {
+                    let mut rng = Rng::new(x as u32, y as u32, k, seed);
+                    let ray =
+                        generate_camera_ray(&scene.camera, width, height, x as u32, y as u32, rng.next_2d());
+                    let l = radiance(scene, &integrator, ray, &mut rng);
+                    film_add_sample(pixel, l);
                 }
-            });
+            }
+        });
         Ok(())
     }
 

@@ -40,8 +40,10 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
         channel("variance.G", var.iter().map(|c| c.y).collect()),
         channel("variance.B", var.iter().map(|c| c.z).collect()),
     ]));
-    let mut attributes = LayerAttributes::default();
-    attributes.software_name = Some(Text::from(concat!("pathlight ", env!("CARGO_PKG_VERSION"))));
+    let mut attributes = LayerAttributes {
+        software_name: Some(Text::from(concat!("pathlight ", env!("CARGO_PKG_VERSION")))),
+        ..LayerAttributes::default()
+    };
     let mut put = |k: &str, v: AttributeValue| {
         attributes.other.insert(Text::from(k), v);
     };
@@ -49,10 +51,15 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
     put("pathlight.seed", AttributeValue::Text(Text::from(meta.seed.to_string().as_str())));
     put("pathlight.backend", AttributeValue::Text(Text::from(meta.backend.as_str())));
     put("pathlight.renderSeconds", AttributeValue::F64(meta.render_seconds));
-    put("pathlight.rejectedSamples", AttributeValue::Text(Text::from(meta.rejected_samples.to_string().as_str())));
+    put(
+        "pathlight.rejectedSamples",
+        AttributeValue::Text(Text::from(meta.rejected_samples.to_string().as_str())),
+    );
     put(
         "pathlight.maxDepth",
-        AttributeValue::Text(Text::from(meta.max_depth.map(|d| d.to_string()).unwrap_or_else(|| "unlimited".into()).as_str())),
+        AttributeValue::Text(Text::from(
+            meta.max_depth.map(|d| d.to_string()).unwrap_or_else(|| "unlimited".into()).as_str(),
+        )),
     );
     put("pathlight.scene", AttributeValue::Text(Text::from(meta.scene.as_str())));
     let layer = Layer::new(size, attributes, Encoding::FAST_LOSSLESS, channels);
@@ -98,10 +105,5 @@ pub fn read_exr(path: &Path) -> Result<ExrImage> {
         .iter()
         .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
         .collect();
-    Ok(ExrImage {
-        width: layer.size.width(),
-        height: layer.size.height(),
-        channels,
-        attributes,
-    })
+    Ok(ExrImage { width: layer.size.width(), height: layer.size.height(), channels, attributes })
 }

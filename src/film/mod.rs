@@ -43,11 +43,7 @@ pub struct Film {
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Film {
-        Film {
-            width,
-            height,
-            pixels: vec![FilmPixel::default(); width as usize * height as usize],
-        }
+        Film { width, height, pixels: vec![FilmPixel::default(); width as usize * height as usize] }
     }
 
     pub fn pixel(&self, x: u32, y: u32) -> &FilmPixel {
@@ -88,7 +84,10 @@ impl Film {
 
 /// Writes `bytes` to `path` atomically: a temporary file beside it, then a rename, so a
 /// reader never sees a half-written image and an old image survives a failed write.
-pub fn write_atomically(path: &std::path::Path, write: impl FnOnce(&std::path::Path) -> crate::Result<()>) -> crate::Result<()> {
+pub fn write_atomically(
+    path: &std::path::Path,
+    write: impl FnOnce(&std::path::Path) -> crate::Result<()>,
+) -> crate::Result<()> {
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));

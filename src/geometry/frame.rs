@@ -40,9 +40,8 @@ mod tests {
     #[test]
     fn frames_are_orthonormal_everywhere() {
         let mut rng = Rng::new(1, 2, 3, 4);
-        let mut normals: Vec<Vec3> = (0..10_000)
-            .map(|_| crate::sampling::sample_uniform_sphere(rng.next_2d()))
-            .collect();
+        let mut normals: Vec<Vec3> =
+            (0..10_000).map(|_| crate::sampling::sample_uniform_sphere(rng.next_2d())).collect();
         // The cases that break naive constructions.
         normals.extend([Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::Y, Vec3::new(0.0, 1e-20, -1.0)]);
         for n in normals {

@@ -36,29 +36,17 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n_geometric: Vec3, w: Vec3) -> 
             po
         }
     };
-    Vec3::new(
-        round(po.x, offset.x),
-        round(po.y, offset.y),
-        round(po.z, offset.z),
-    )
+    Vec3::new(round(po.x, offset.x), round(po.y, offset.y), round(po.z, offset.z))
 }
 
 /// A ray leaving surface point `p` in direction `w`, with no upper bound on `t`.
 pub fn spawn_ray(p: Vec3, p_error: Vec3, n_geometric: Vec3, w: Vec3) -> Ray {
-    Ray {
-        origin: offset_ray_origin(p, p_error, n_geometric, w),
-        direction: w,
-        t_max: f32::MAX,
-    }
+    Ray { origin: offset_ray_origin(p, p_error, n_geometric, w), direction: w, t_max: f32::MAX }
 }
 
 /// A shadow ray from surface point `p` to `target`, both offset off their surfaces; it
 /// reaches the target at `t = 1` and stops at `1 − SHADOW_EPSILON` (pbrt-v4 `SpawnRayTo`).
 pub fn spawn_ray_to(p: Vec3, p_error: Vec3, n_geometric: Vec3, target: Vec3) -> Ray {
     let origin = offset_ray_origin(p, p_error, n_geometric, target - p);
-    Ray {
-        origin,
-        direction: target - origin,
-        t_max: 1.0 - SHADOW_EPSILON,
-    }
+    Ray { origin, direction: target - origin, t_max: 1.0 - SHADOW_EPSILON }
 }

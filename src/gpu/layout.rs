@@ -243,9 +243,12 @@ gpu_struct! {
     }
 }
 
-/// Every GPU-visible struct as `(name, size, field offsets)`, for the layout test.
-pub fn all_layouts() -> Vec<(&'static str, usize, Vec<(&'static str, usize)>)> {
-    fn entry<T: GpuStruct>() -> (&'static str, usize, Vec<(&'static str, usize)>) {
+/// One struct's layout: name, size in bytes, and `(field, offset)` pairs.
+pub type StructLayout = (&'static str, usize, Vec<(&'static str, usize)>);
+
+/// Every GPU-visible struct's layout, for the layout test.
+pub fn all_layouts() -> Vec<StructLayout> {
+    fn entry<T: GpuStruct>() -> StructLayout {
         (T::NAME, std::mem::size_of::<T>(), T::field_offsets())
     }
     vec![

@@ -6,8 +6,11 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::geometry::{offset_ray_origin, spawn_ray, spawn_ray_to, gamma, Ray};
-use crate::gpu::layout::{Light, Material, Triangle, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED};
+use crate::geometry::{gamma, offset_ray_origin, spawn_ray, spawn_ray_to, Ray};
+use crate::gpu::layout::{
+    Light, Material, Triangle, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE,
+    MATERIAL_DOUBLE_SIDED,
+};
 use crate::sampling::sample_uniform_triangle;
 
 /// The flat arrays light sampling reads.
@@ -64,14 +67,21 @@ pub fn spot_falloff(light: &Light, cos_theta: f32) -> f32 {
 
 /// Samples incident light at surface point `p` (error bound `p_error`, geometric normal
 /// `n_geometric`, used only to offset the shadow ray).
-pub fn sample_light(arrays: LightArrays, p: Vec3, p_error: Vec3, n_geometric: Vec3, u_select: Vec2, u_point: Vec2) -> Option<LightSample> {
+pub fn sample_light(
+    arrays: LightArrays,
+    p: Vec3,
+    p_error: Vec3,
+    n_geometric: Vec3,
+    u_select: Vec2,
+    u_point: Vec2,
+) -> Option<LightSample> {
     if arrays.lights.is_empty() {
         return None;
     }
     let index = choose_light(arrays.lights, u_select);
     let light = &arrays.lights[index];
     let pmf = light.pmf;
-    if !(pmf > 0.0) {
+    if pmf.is_nan() || pmf <= 0.0 {
         return None;
     }
     match light.kind {

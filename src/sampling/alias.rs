@@ -15,18 +15,14 @@ pub struct AliasEntry {
 pub fn build_alias_table(weights: &[f64]) -> Option<Vec<AliasEntry>> {
     let n = weights.len();
     let total: f64 = weights.iter().sum();
-    if n == 0 || !(total > 0.0) || !total.is_finite() || weights.iter().any(|w| *w < 0.0) {
+    if n == 0 || total.is_nan() || total <= 0.0 || !total.is_finite() || weights.iter().any(|w| *w < 0.0) {
         return None;
     }
     let mut scaled: Vec<f64> = weights.iter().map(|w| w / total * n as f64).collect();
     let mut entries: Vec<AliasEntry> = weights
         .iter()
         .enumerate()
-        .map(|(i, w)| AliasEntry {
-            probability: 1.0,
-            alias: i as u32,
-            pmf: (w / total) as f32,
-        })
+        .map(|(i, w)| AliasEntry { probability: 1.0, alias: i as u32, pmf: (w / total) as f32 })
         .collect();
     let mut small: Vec<usize> = Vec::new();
     let mut large: Vec<usize> = Vec::new();

@@ -21,7 +21,10 @@ pub fn load_buffers(doc: &gltf::Document, blob: Option<&[u8]>, file: &Path) -> R
         let data = match buffer.source() {
             gltf::buffer::Source::Bin => blob
                 .ok_or_else(|| {
-                    Error::scene(file, format!("buffer {i} refers to the GLB binary chunk, but the file has none"))
+                    Error::scene(
+                        file,
+                        format!("buffer {i} refers to the GLB binary chunk, but the file has none"),
+                    )
                 })?
                 .to_vec(),
             gltf::buffer::Source::Uri(uri) => {
@@ -30,11 +33,14 @@ pub fn load_buffers(doc: &gltf::Document, blob: Option<&[u8]>, file: &Path) -> R
                         Error::scene(file, format!("buffer {i}: malformed data URI (no ',')"))
                     })?;
                     if !header.ends_with(";base64") {
-                        return Err(Error::scene(file, format!("buffer {i}: only base64 data URIs are supported")));
+                        return Err(Error::scene(
+                            file,
+                            format!("buffer {i}: only base64 data URIs are supported"),
+                        ));
                     }
-                    base64::engine::general_purpose::STANDARD
-                        .decode(payload.trim())
-                        .map_err(|e| Error::scene(file, format!("buffer {i}: invalid base64 data URI: {e}")))?
+                    base64::engine::general_purpose::STANDARD.decode(payload.trim()).map_err(|e| {
+                        Error::scene(file, format!("buffer {i}: invalid base64 data URI: {e}"))
+                    })?
                 } else {
                     let path = base.join(percent_decode(uri));
                     std::fs::read(&path).map_err(|e| {
@@ -105,11 +111,8 @@ impl<'a> Strided<'a> {
         what: &str,
     ) -> std::result::Result<Strided<'a>, String> {
         let buffer = &buffers[view.buffer().index()];
-        let view_end = view
-            .offset()
-            .checked_add(view.length())
-            .filter(|end| *end <= buffer.len())
-            .ok_or_else(|| {
+        let view_end =
+            view.offset().checked_add(view.length()).filter(|end| *end <= buffer.len()).ok_or_else(|| {
                 format!(
                     "{what}: buffer view {} (bytes {}..+{}) lies outside buffer {} ({} bytes)",
                     view.index(),
@@ -140,12 +143,7 @@ impl<'a> Strided<'a> {
                 }
             }
         }
-        Ok(Strided {
-            bytes: &bytes[offset.min(bytes.len())..],
-            stride,
-            elem_size,
-            count,
-        })
+        Ok(Strided { bytes: &bytes[offset.min(bytes.len())..], stride, elem_size, count })
     }
 
     fn element(&self, i: usize) -> &'a [u8] {
@@ -168,7 +166,11 @@ fn read_uint(t: DataType, b: &[u8]) -> u32 {
 
 /// Reads an accessor's raw elements (dense, then sparse substitution) as byte vectors of
 /// `elem_size` each, concatenated.
-fn read_raw(buffers: &[Vec<u8>], accessor: &gltf::Accessor, what: &str) -> std::result::Result<Vec<u8>, String> {
+fn read_raw(
+    buffers: &[Vec<u8>],
+    accessor: &gltf::Accessor,
+    what: &str,
+) -> std::result::Result<Vec<u8>, String> {
     let count = accessor.count();
     let elem_size = component_size(accessor.data_type()) * accessor.dimensions().multiplicity();
     let mut out;
@@ -204,7 +206,14 @@ fn read_raw(buffers: &[Vec<u8>], accessor: &gltf::Accessor, what: &str) -> std::
             &format!("{what} sparse indices"),
         )?;
         let val_view = sparse.values().view();
-        let values = Strided::new(buffers, &val_view, sparse.values().offset(), n, elem_size, &format!("{what} sparse values"))?;
+        let values = Strided::new(
+            buffers,
+            &val_view,
+            sparse.values().offset(),
+            n,
+            elem_size,
+            &format!("{what} sparse values"),
+        )?;
         // Sparse views are tightly packed by definition (no byteStride).
         for k in 0..n {
             let target = read_uint(index_type, indices.element(k)) as usize;
@@ -218,7 +227,11 @@ fn read_raw(buffers: &[Vec<u8>], accessor: &gltf::Accessor, what: &str) -> std::
 }
 
 /// Reads a FLOAT VEC3 accessor (POSITION, NORMAL).
-pub fn read_vec3(buffers: &[Vec<u8>], accessor: &gltf::Accessor, what: &str) -> std::result::Result<Vec<[f32; 3]>, String> {
+pub fn read_vec3(
+    buffers: &[Vec<u8>],
+    accessor: &gltf::Accessor,
+    what: &str,
+) -> std::result::Result<Vec<[f32; 3]>, String> {
     if accessor.data_type() != DataType::F32 || accessor.dimensions() != Dimensions::Vec3 {
         return Err(format!(
             "{what} (accessor {}) is {:?} {:?}; only FLOAT VEC3 is supported (KHR_mesh_quantization is not)",
@@ -228,16 +241,19 @@ pub fn read_vec3(buffers: &[Vec<u8>], accessor: &gltf::Accessor, what: &str) -> 
         ));
     }
     let raw = read_raw(buffers, accessor, &format!("{what} (accessor {})", accessor.index()))?;
-    Ok(raw
-        .chunks_exact(12)
-        .map(|c| [read_f32(&c[0..4]), read_f32(&c[4..8]), read_f32(&c[8..12])])
-        .collect())
+    Ok(raw.chunks_exact(12).map(|c| [read_f32(&c[0..4]), read_f32(&c[4..8]), read_f32(&c[8..12])]).collect())
 }
 
 /// Reads an index accessor (UNSIGNED_BYTE/SHORT/INT SCALAR).
-pub fn read_indices(buffers: &[Vec<u8>], accessor: &gltf::Accessor, what: &str) -> std::result::Result<Vec<u32>, String> {
+pub fn read_indices(
+    buffers: &[Vec<u8>],
+    accessor: &gltf::Accessor,
+    what: &str,
+) -> std::result::Result<Vec<u32>, String> {
     let t = accessor.data_type();
-    if !matches!(t, DataType::U8 | DataType::U16 | DataType::U32) || accessor.dimensions() != Dimensions::Scalar {
+    if !matches!(t, DataType::U8 | DataType::U16 | DataType::U32)
+        || accessor.dimensions() != Dimensions::Scalar
+    {
         return Err(format!(
             "{what} (accessor {}) is {:?} {:?}; indices must be unsigned byte, short or int scalars",
             accessor.index(),

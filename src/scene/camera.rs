@@ -26,17 +26,16 @@ pub struct CameraDesc {
 
 impl CameraDesc {
     /// A camera from a node's world rotation/scale part and translation.
-    pub fn from_node(name: String, projection: Projection, linear: DMat3, position: DVec3) -> Option<CameraDesc> {
+    pub fn from_node(
+        name: String,
+        projection: Projection,
+        linear: DMat3,
+        position: DVec3,
+    ) -> Option<CameraDesc> {
         let forward = (linear * DVec3::NEG_Z).try_normalize()?;
         let up_raw = linear * DVec3::Y;
         let up = (up_raw - forward * up_raw.dot(forward)).try_normalize()?;
-        Some(CameraDesc {
-            name,
-            projection,
-            position,
-            forward,
-            up,
-        })
+        Some(CameraDesc { name, projection, position, forward, up })
     }
 
     /// A perspective camera with a 45° vertical field of view looking down −Z at the centre
@@ -52,10 +51,7 @@ impl CameraDesc {
         let distance = radius / half_min.atan().sin() * 1.05;
         CameraDesc {
             name: "default (framing the scene)".into(),
-            projection: Projection::Perspective {
-                yfov,
-                aspect_ratio: None,
-            },
+            projection: Projection::Perspective { yfov, aspect_ratio: None },
             position: center + DVec3::Z * distance,
             forward: DVec3::NEG_Z,
             up: DVec3::Y,
@@ -96,7 +92,14 @@ impl CameraDesc {
 /// The camera ray through image position `(x + u.x, y + u.y)` (pixels, y down) of a
 /// `width × height` image: a box pixel filter with one uniformly placed sample. Direction
 /// is unit length, so `t` is distance.
-pub fn generate_camera_ray(camera: &layout::Camera, width: u32, height: u32, x: u32, y: u32, u: glam::Vec2) -> crate::geometry::Ray {
+pub fn generate_camera_ray(
+    camera: &layout::Camera,
+    width: u32,
+    height: u32,
+    x: u32,
+    y: u32,
+    u: glam::Vec2,
+) -> crate::geometry::Ray {
     use glam::Vec3;
     let ndc_x = 2.0 * (x as f32 + u.x) / width as f32 - 1.0;
     let ndc_y = 1.0 - 2.0 * (y as f32 + u.y) / height as f32;
@@ -108,9 +111,5 @@ pub fn generate_camera_ray(camera: &layout::Camera, width: u32, height: u32, x: 
     } else {
         (Vec3::ZERO, (forward + right + up).normalize())
     };
-    crate::geometry::Ray {
-        origin,
-        direction,
-        t_max: f32::MAX,
-    }
+    crate::geometry::Ray { origin, direction, t_max: f32::MAX }
 }

@@ -35,7 +35,11 @@ impl SceneFeatures {
     };
 
     /// The features of `materials[i]` for every `i` in `used_materials`, and of `lights`.
-    pub fn detect(materials: &[layout::Material], used_materials: &[bool], lights: &[layout::Light]) -> SceneFeatures {
+    pub fn detect(
+        materials: &[layout::Material],
+        used_materials: &[bool],
+        lights: &[layout::Light],
+    ) -> SceneFeatures {
         let mut f = SceneFeatures::default();
         for (m, _) in materials.iter().zip(used_materials).filter(|(_, used)| **used) {
             // The dielectric specular layer vanishes only when specularFactor is 0; a metal

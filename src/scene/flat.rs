@@ -7,8 +7,8 @@ use super::{oct_encode, CameraDesc, PunctualKind, Scene, SceneFeatures};
 use crate::bvh::{self, BvhStats};
 use crate::error::{Error, Result};
 use crate::gpu::layout::{
-    self, BvhNode, Light, Triangle, TriangleNormals, INVALID_INDEX, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT,
-    LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, TRIANGLE_HAS_NORMALS,
+    self, BvhNode, Light, Triangle, TriangleNormals, INVALID_INDEX, LIGHT_DIRECTIONAL, LIGHT_POINT,
+    LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, TRIANGLE_HAS_NORMALS,
 };
 use crate::light::triangle_normal_area;
 use crate::sampling::build_alias_table;
@@ -58,20 +58,15 @@ impl FlatScene {
                     scene.cameras.len()
                 ))
             })?,
-            None => scene
-                .cameras
-                .first()
-                .cloned()
-                .unwrap_or_else(|| CameraDesc::framing(bmin, bmax, view.aspect)),
+            None => {
+                scene.cameras.first().cloned().unwrap_or_else(|| CameraDesc::framing(bmin, bmax, view.aspect))
+            }
         };
         // Camera-relative coordinates: subtract the camera position in f64, then round.
         let origin = camera_desc.position;
         let rel = |p: DVec3| (p - origin).as_vec3();
-        let positions: Vec<[Vec3; 3]> = scene
-            .positions
-            .chunks_exact(3)
-            .map(|t| [rel(t[0]), rel(t[1]), rel(t[2])])
-            .collect();
+        let positions: Vec<[Vec3; 3]> =
+            scene.positions.chunks_exact(3).map(|t| [rel(t[0]), rel(t[1]), rel(t[2])]).collect();
         let bvh = bvh::build(&positions);
 
         let materials: Vec<layout::Material> = scene.materials.iter().map(|m| m.to_gpu()).collect();
@@ -90,12 +85,9 @@ impl FlatScene {
                 flags: if n.is_some() { TRIANGLE_HAS_NORMALS } else { 0 },
             });
             normals.push(match n {
-                Some([n0, n1, n2]) => TriangleNormals {
-                    n0: oct_encode(n0),
-                    n1: oct_encode(n1),
-                    n2: oct_encode(n2),
-                    _pad0: 0,
-                },
+                Some([n0, n1, n2]) => {
+                    TriangleNormals { n0: oct_encode(n0), n1: oct_encode(n1), n2: oct_encode(n2), _pad0: 0 }
+                }
                 None => TriangleNormals::default(),
             });
         }
@@ -116,11 +108,7 @@ impl FlatScene {
             let (_, area) = triangle_normal_area(tri);
             let sides = if m.flags & MATERIAL_DOUBLE_SIDED != 0 { 2.0 } else { 1.0 };
             tri.emitter = lights.len() as u32;
-            lights.push(Light {
-                kind: LIGHT_TRIANGLE,
-                triangle: i as u32,
-                ..Default::default()
-            });
+            lights.push(Light { kind: LIGHT_TRIANGLE, triangle: i as u32, ..Default::default() });
             powers.push(std::f64::consts::PI * area as f64 * luminance(le) as f64 * sides);
         }
         for pl in &scene.lights {
@@ -138,10 +126,7 @@ impl FlatScene {
                     light.kind = LIGHT_POINT;
                     4.0 * std::f64::consts::PI * lum
                 }
-                PunctualKind::Spot {
-                    inner_cone_angle,
-                    outer_cone_angle,
-                } => {
+                PunctualKind::Spot { inner_cone_angle, outer_cone_angle } => {
                     light.kind = LIGHT_SPOT;
                     let inner = inner_cone_angle.min(outer_cone_angle);
                     light.cos_outer = outer_cone_angle.cos();

@@ -34,9 +34,27 @@ pub fn load(file: &Path) -> Result<(Scene, Vec<String>)> {
 }
 
 /// Loads a glTF scene from bytes; `file` names it in errors and resolves relative URIs.
+///
+/// Malformed input is an error, never a crash: besides our own checks, a panic inside a
+/// third-party parser on a hostile file is caught and reported as an error naming the file.
 pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)> {
+    match std::panic::catch_unwind(|| load_unchecked(bytes, file)) {
+        Ok(result) => result,
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            Err(Error::scene(file, format!("malformed glTF: the parser failed ({what})")))
+        }
+    }
+}
+
+fn load_unchecked(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)> {
     let err = |m: String| Error::scene(file, m);
-    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| err(format!("not a valid glTF file: {e}")))?;
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| err(format!("not a valid glTF file: {e}")))?;
     let mut warnings = Vec::new();
 
     // Extensions: our own policy, since the gltf crate's list differs from what we render.
@@ -51,15 +69,42 @@ pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)
     }
 
     // Structural validation (index ranges etc.), minus the crate's own required-extension
-    // check, which we replaced above.
+    // check, which we replaced above. The validator itself indexes the POSITION accessor
+    // without a bounds check, so check that reference first.
     let root = gltf.document.as_json();
+    for (mi, mesh) in root.meshes.iter().enumerate() {
+        for (pi, primitive) in mesh.primitives.iter().enumerate() {
+            let pos = gltf::json::validation::Checked::Valid(gltf::json::mesh::Semantic::Positions);
+            if let Some(index) = primitive.attributes.get(&pos) {
+                if index.value() >= root.accessors.len() {
+                    return Err(err(format!(
+                        "mesh {mi} primitive {pi}: POSITION refers to accessor {}, but the file has {} accessors",
+                        index.value(),
+                        root.accessors.len()
+                    )));
+                }
+            }
+        }
+    }
     let mut problems = Vec::new();
+    let mut missing_bounds = 0;
     root.validate(root, gltf::json::Path::new, &mut |path, error| {
         let path = path().to_string();
-        if !path.starts_with("extensionsRequired") {
-            problems.push(format!("{path}: {error:?}"));
+        if path.starts_with("extensionsRequired") {
+            return;
         }
+        // POSITION min/max are required by the spec but many exporters omit them; pathlight
+        // computes its own bounds, so this is only worth a warning.
+        if path.contains("POSITION") && (path.ends_with(".min") || path.ends_with(".max")) {
+            missing_bounds += 1;
+            return;
+        }
+        problems.push(format!("{path}: {error:?}"));
     });
+    if missing_bounds > 0 {
+        warnings
+            .push("POSITION accessors lack the min/max the spec requires; bounds computed instead".into());
+    }
     if !problems.is_empty() {
         let shown: Vec<_> = problems.iter().take(5).cloned().collect();
         return Err(err(format!(
@@ -74,14 +119,12 @@ pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)
     let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), file)?;
     let doc = &gltf.document;
 
-    let mut scene = Scene {
-        source: file.to_path_buf(),
-        ..Scene::default()
-    };
+    let mut scene = Scene { source: file.to_path_buf(), ..Scene::default() };
     scene.materials = doc.materials().map(|m| read_material(&m, file)).collect::<Result<_>>()?;
     let default_material = scene.materials.len() as u32;
     scene.materials.push(MaterialDesc::default());
-    let textured: Vec<&str> = scene.materials.iter().filter(|m| m.uses_textures()).map(|m| m.name.as_str()).collect();
+    let textured: Vec<&str> =
+        scene.materials.iter().filter(|m| m.uses_textures()).map(|m| m.name.as_str()).collect();
     if !textured.is_empty() {
         warnings.push(format!(
             "textures are not rendered yet; {} material(s) use their factors only ({})",
@@ -96,7 +139,8 @@ pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)
         .map(|m| m.name.as_str())
         .collect();
     if !alpha.is_empty() {
-        warnings.push(format!("alpha modes are not rendered yet; {} material(s) treated as opaque", alpha.len()));
+        warnings
+            .push(format!("alpha modes are not rendered yet; {} material(s) treated as opaque", alpha.len()));
     }
 
     let gltf_scene = doc
@@ -115,7 +159,8 @@ pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)
         if depth > node_count {
             return Err(err(format!("the node hierarchy has a cycle through node {}", node.index())));
         }
-        let local = node_transform(&raw_json, node.index()).map_err(|m| err(format!("node {}: {m}", node.index())))?;
+        let local = node_transform(&raw_json, node.index())
+            .map_err(|m| err(format!("node {}: {m}", node.index())))?;
         let world = parent * local;
         if !world.is_finite() {
             return Err(err(format!("node {}: transform is not finite", node.index())));
@@ -130,21 +175,27 @@ pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)
                     yfov: p.yfov() as f64,
                     aspect_ratio: p.aspect_ratio().map(|a| a as f64),
                 },
-                gltf::camera::Projection::Orthographic(o) => Projection::Orthographic {
-                    xmag: o.xmag().abs() as f64,
-                    ymag: o.ymag().abs() as f64,
-                },
+                gltf::camera::Projection::Orthographic(o) => {
+                    Projection::Orthographic { xmag: o.xmag().abs() as f64, ymag: o.ymag().abs() as f64 }
+                }
             };
             let valid = match projection {
                 Projection::Perspective { yfov, aspect_ratio } => {
-                    yfov > 0.0 && yfov < std::f64::consts::PI && aspect_ratio.is_none_or(|a| a > 0.0 && a.is_finite())
+                    yfov > 0.0
+                        && yfov < std::f64::consts::PI
+                        && aspect_ratio.is_none_or(|a| a > 0.0 && a.is_finite())
                 }
                 Projection::Orthographic { xmag, ymag } => xmag > 0.0 && ymag > 0.0,
             };
-            let name = camera.name().map(str::to_owned).unwrap_or_else(|| format!("camera {}", camera.index()));
+            let name =
+                camera.name().map(str::to_owned).unwrap_or_else(|| format!("camera {}", camera.index()));
             match CameraDesc::from_node(name, projection, rotation, translation) {
                 Some(c) if valid => scene.cameras.push(c),
-                _ => warnings.push(format!("camera {} on node {} is degenerate; skipped", camera.index(), node.index())),
+                _ => warnings.push(format!(
+                    "camera {} on node {} is degenerate; skipped",
+                    camera.index(),
+                    node.index()
+                )),
             }
         }
         if let Some(light) = node.light() {
@@ -152,18 +203,20 @@ pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)
             let color = Vec3::from(light.color());
             let intensity = color * light.intensity();
             if !intensity.is_finite() || intensity.min_element() < 0.0 {
-                return Err(err(format!("light {}: colour × intensity is not a finite non-negative value", light.index())));
+                return Err(err(format!(
+                    "light {}: colour × intensity is not a finite non-negative value",
+                    light.index()
+                )));
             }
             let kind = match light.kind() {
                 gltf::khr_lights_punctual::Kind::Point => PunctualKind::Point,
                 gltf::khr_lights_punctual::Kind::Directional => PunctualKind::Directional,
-                gltf::khr_lights_punctual::Kind::Spot {
-                    inner_cone_angle,
-                    outer_cone_angle,
-                } => PunctualKind::Spot {
-                    inner_cone_angle: inner_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2),
-                    outer_cone_angle: outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2),
-                },
+                gltf::khr_lights_punctual::Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+                    PunctualKind::Spot {
+                        inner_cone_angle: inner_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2),
+                        outer_cone_angle: outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2),
+                    }
+                }
             };
             let direction = (rotation * DVec3::NEG_Z).try_normalize().unwrap_or(DVec3::NEG_Z);
             scene.lights.push(PunctualLight {
@@ -214,9 +267,16 @@ fn raw_json_value(bytes: &[u8]) -> std::result::Result<serde_json::Value, String
     }
 }
 
-fn f64_array<const N: usize>(v: Option<&serde_json::Value>, default: [f64; N], what: &str) -> std::result::Result<[f64; N], String> {
+fn f64_array<const N: usize>(
+    v: Option<&serde_json::Value>,
+    default: [f64; N],
+    what: &str,
+) -> std::result::Result<[f64; N], String> {
     let Some(v) = v else { return Ok(default) };
-    let arr = v.as_array().filter(|a| a.len() == N).ok_or_else(|| format!("{what} must be an array of {N} numbers"))?;
+    let arr = v
+        .as_array()
+        .filter(|a| a.len() == N)
+        .ok_or_else(|| format!("{what} must be an array of {N} numbers"))?;
     let mut out = [0.0; N];
     for (o, x) in out.iter_mut().zip(arr) {
         *o = x.as_f64().ok_or_else(|| format!("{what} must contain numbers"))?;
@@ -284,7 +344,10 @@ fn add_mesh(
             .ok_or_else(|| err(format!("{what}: has no POSITION attribute")))?;
         let positions = read_vec3(buffers, &pos_acc, &format!("{what}: POSITION")).map_err(err)?;
         if let Some(i) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-            return Err(err(format!("{what}: POSITION (accessor {}) vertex {i} is not finite", pos_acc.index())));
+            return Err(err(format!(
+                "{what}: POSITION (accessor {}) vertex {i} is not finite",
+                pos_acc.index()
+            )));
         }
         let normals = match primitive.get(&gltf::Semantic::Normals) {
             Some(acc) => {
@@ -370,10 +433,7 @@ fn assemble_triangles(indices: &[u32], mode: gltf::mesh::Mode) -> Vec<[u32; 3]> 
 }
 
 fn slot(info: Option<gltf::texture::Info>) -> Option<TextureSlot> {
-    info.map(|i| TextureSlot {
-        texture: i.texture().index(),
-        tex_coord: i.tex_coord(),
-    })
+    info.map(|i| TextureSlot { texture: i.texture().index(), tex_coord: i.tex_coord() })
 }
 
 fn read_material(m: &gltf::Material, file: &Path) -> Result<MaterialDesc> {
@@ -403,14 +463,12 @@ fn read_material(m: &gltf::Material, file: &Path) -> Result<MaterialDesc> {
         },
         base_color_texture: slot(pbr.base_color_texture()),
         metallic_roughness_texture: slot(pbr.metallic_roughness_texture()),
-        normal_texture: m.normal_texture().map(|t| TextureSlot {
-            texture: t.texture().index(),
-            tex_coord: t.tex_coord(),
-        }),
-        occlusion_texture: m.occlusion_texture().map(|t| TextureSlot {
-            texture: t.texture().index(),
-            tex_coord: t.tex_coord(),
-        }),
+        normal_texture: m
+            .normal_texture()
+            .map(|t| TextureSlot { texture: t.texture().index(), tex_coord: t.tex_coord() }),
+        occlusion_texture: m
+            .occlusion_texture()
+            .map(|t| TextureSlot { texture: t.texture().index(), tex_coord: t.tex_coord() }),
         emissive_texture: slot(m.emissive_texture()),
         ..MaterialDesc::default()
     };

@@ -6,7 +6,10 @@ use glam::{DVec3, Vec3};
 pub enum PunctualKind {
     Point,
     /// Cone angles in radians.
-    Spot { inner_cone_angle: f32, outer_cone_angle: f32 },
+    Spot {
+        inner_cone_angle: f32,
+        outer_cone_angle: f32,
+    },
     Directional,
 }
 

@@ -124,11 +124,7 @@ impl MaterialDesc {
 
     /// The kernel's view of this material.
     pub fn to_gpu(&self) -> layout::Material {
-        let ior = if self.ior == 0.0 {
-            IOR_INFINITE_STANDIN
-        } else {
-            self.ior
-        };
+        let ior = if self.ior == 0.0 { IOR_INFINITE_STANDIN } else { self.ior };
         // Beer–Lambert: transmittance over distance d is attenuationColor^(d / distance),
         // i.e. exp(−σₐ d) with σₐ = −ln(c) / distance (KHR_materials_volume). A colour of 0 is
         // clamped so σₐ stays finite (1e-6 per attenuation distance is already black).

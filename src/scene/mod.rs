@@ -45,11 +45,7 @@ impl Scene {
     /// World-space bounds of all triangles (`None` when there are none).
     pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
         let first = *self.positions.first()?;
-        Some(
-            self.positions
-                .iter()
-                .fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))),
-        )
+        Some(self.positions.iter().fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
     }
 
     /// Adds a triangle (used by scene generators and tests).

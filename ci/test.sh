@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# The test command: installs what the tests need, then checks formatting and lints and runs
+# the whole test suite (unit, integration, CLI, and the GPU tests on Vulkan/lavapipe).
+#
+# GPU tests need a Vulkan driver. With CI=true a missing adapter fails those tests; without
+# it they are skipped loudly. Run as root on Debian to have the driver installed here.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+need_apt=()
+if ! ldconfig -p 2>/dev/null | grep -q 'libvulkan.so.1'; then need_apt+=(libvulkan1); fi
+if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1; then need_apt+=(mesa-vulkan-drivers); fi
+if [ ${#need_apt[@]} -gt 0 ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        echo "ci/test.sh: installing ${need_apt[*]}"
+        apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need_apt[@]}" >/dev/null
+    else
+        echo "ci/test.sh: WARNING: ${need_apt[*]} missing and cannot be installed (not root/apt); GPU tests will skip or fail" >&2
+    fi
+fi
+
+if ! command -v cargo >/dev/null; then
+    echo "ci/test.sh: cargo not found; install Rust from https://rustup.rs" >&2
+    exit 1
+fi
+
+# Mesa prints a harmless warning without it.
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+
+cargo fmt --check
+cargo clippy --release --all-targets -- -D warnings
+cargo test --release

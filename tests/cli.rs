@@ -1,0 +1,128 @@
+//! The `pathlight` command line, end to end.
+
+mod common;
+
+use std::process::Command;
+
+fn pathlight() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_pathlight"));
+    c.env("XDG_RUNTIME_DIR", "/tmp");
+    c
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("pathlight-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn renders_cornell_box_to_exr_and_png() {
+    let dir = temp_dir("cornell");
+    let (exr, png) = (dir.join("c.exr"), dir.join("c.png"));
+    let out = pathlight()
+        .args([
+            "render",
+            common::scene("cornell-box.gltf").to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--spp",
+            "8",
+            "--width",
+            "64",
+            "--seed",
+            "5",
+        ])
+        .arg("-o")
+        .arg(&exr)
+        .arg("-o")
+        .arg(&png)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "render failed: {stderr}");
+    assert!(stderr.contains("8 spp at 64×64"), "summary line missing: {stderr}");
+    assert!(stderr.contains("Msamples/s") && stderr.contains("rejected"), "{stderr}");
+
+    let image = pathlight::film::read_exr(&exr).unwrap();
+    assert_eq!((image.width, image.height), (64, 64), "width given, height from the camera's aspect ratio 1");
+    for c in ["R", "G", "B", "variance.R", "variance.G", "variance.B"] {
+        let data = &image.channels[c];
+        assert_eq!(data.len(), 64 * 64, "{c}");
+        assert!(data.iter().all(|v| v.is_finite() && *v >= 0.0), "{c}");
+    }
+    let mean_r = image.channels["R"].iter().sum::<f32>() / 4096.0;
+    assert!(mean_r > 0.05, "the Cornell box is lit (mean R {mean_r})");
+    assert!(image.channels["variance.R"].iter().any(|v| *v > 0.0), "noisy pixels carry variance");
+    assert_eq!(image.attributes["pathlight.spp"], "8");
+    assert_eq!(image.attributes["pathlight.seed"], "5");
+    assert!(image.attributes["pathlight.backend"].starts_with("cpu"));
+    assert!(image.attributes["pathlight.renderSeconds"].parse::<f64>().unwrap() > 0.0);
+
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!((info.width, info.height), (64, 64));
+    assert!(buf[..info.buffer_size()].iter().any(|&b| b > 50), "PNG is not black");
+
+    // Same seed, same image: the CPU reference is deterministic.
+    let exr2 = dir.join("c2.exr");
+    let out = pathlight()
+        .args([
+            "render",
+            common::scene("cornell-box.gltf").to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--spp",
+            "8",
+            "--width",
+            "64",
+            "--seed",
+            "5",
+            "-o",
+        ])
+        .arg(&exr2)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert_eq!(pathlight::film::read_exr(&exr2).unwrap().channels["R"], image.channels["R"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_gets_a_clear_error() {
+    let dir = temp_dir("errors");
+    let run = |args: &[&str]| {
+        let out = pathlight().args(args).output().unwrap();
+        assert!(!out.status.success(), "{args:?} should fail");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let out = dir.join("x.exr");
+    let out = out.to_str().unwrap();
+    let e = run(&["render", "/nonexistent/scene.gltf", "--backend", "cpu", "-o", out]);
+    assert!(e.contains("/nonexistent/scene.gltf"), "{e}");
+    let garbage = dir.join("garbage.glb");
+    std::fs::write(&garbage, b"glTF\x02\x00\x00\x00garbage").unwrap();
+    let e = run(&["render", garbage.to_str().unwrap(), "--backend", "cpu", "-o", out]);
+    assert!(e.contains("garbage.glb") && e.contains("not a valid glTF"), "{e}");
+    let cornell = common::scene("cornell-box.gltf");
+    let e = run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "--camera", "3", "-o", out]);
+    assert!(e.contains("--camera 3") && e.contains("1 camera"), "{e}");
+    let e = run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "-o", "image.jpg"]);
+    assert!(e.contains("image.jpg") && e.contains(".exr or .png"), "{e}");
+    let e = run(&[
+        "render",
+        cornell.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--spp",
+        "4",
+        "--width",
+        "8",
+        "-o",
+        "/nonexistent-dir/x.exr",
+    ]);
+    assert!(e.contains("/nonexistent-dir/x.exr"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
