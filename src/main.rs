@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use pathlight::film::{write_exr, write_png, RenderMetadata, Tonemap};
+use pathlight::gpu::{describe_adapter, enumerate_adapters, GpuBackend, GpuContext};
 use pathlight::scene::{FlatScene, ViewSettings};
 use pathlight::{Backend, Error, RenderSettings};
 
@@ -27,10 +28,15 @@ struct Cli {
 enum Command {
     /// Render a glTF scene to EXR (linear, with per-pixel variance) and/or PNG.
     Render(RenderArgs),
+    /// List the Vulkan adapters with their driver, type and the limits that matter.
+    Info,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum BackendChoice {
+    /// The WGSL megakernel on a Vulkan device (falls back to the CPU if there is none).
+    Gpu,
+    /// The CPU reference renderer.
     Cpu,
 }
 
@@ -56,8 +62,11 @@ struct RenderArgs {
     /// Image height (default 512; derived from the camera's aspect ratio if only --width is given).
     #[arg(long)]
     height: Option<u32>,
-    #[arg(long, value_enum, default_value_t = BackendChoice::Cpu)]
+    #[arg(long, value_enum, default_value_t = BackendChoice::Gpu)]
     backend: BackendChoice,
+    /// GPU: use the first Vulkan adapter whose name contains this (case-insensitive).
+    #[arg(long)]
+    device: Option<String>,
     /// Random seed; the same seed gives the same image.
     #[arg(long, default_value_t = 0)]
     seed: u32,
@@ -79,6 +88,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => run_render(args),
+        Command::Info => run_info(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -87,6 +97,18 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn run_info() -> Result<(), Error> {
+    let adapters = enumerate_adapters();
+    if adapters.is_empty() {
+        println!("no Vulkan adapters found (render falls back to the CPU backend)");
+    }
+    for (i, a) in adapters.iter().enumerate() {
+        println!("[{i}] {}", describe_adapter(a));
+    }
+    println!("CPU reference: {} threads", rayon::current_num_threads());
+    Ok(())
 }
 
 /// The image size: 512×512 by default; with only one side given, the other follows the
@@ -149,6 +171,24 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     };
     let mut backend: Box<dyn Backend + '_> = match args.backend {
         BackendChoice::Cpu => Box::new(pathlight::cpu::CpuBackend::new(&flat, &settings)),
+        BackendChoice::Gpu => match GpuContext::new(args.device.as_deref()) {
+            Ok(ctx) => {
+                let gpu = GpuBackend::new(Arc::new(ctx), &flat, &settings)?;
+                eprintln!(
+                    "kernel specialised to [{}] built in {:.2} s, scene uploaded in {:.3} s",
+                    flat.features.describe(),
+                    gpu.kernel_build_seconds(),
+                    gpu.upload_seconds
+                );
+                Box::new(gpu)
+            }
+            // No Vulkan device at all: the CPU reference renders the same image.
+            Err(e) if args.device.is_none() => {
+                eprintln!("warning: {e}; falling back to the CPU backend");
+                Box::new(pathlight::cpu::CpuBackend::new(&flat, &settings))
+            }
+            Err(e) => return Err(e),
+        },
     };
 
     // Ctrl-C stops after the pass in flight and still writes what was rendered; a second
@@ -200,12 +240,14 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         }
     }
     let samples = film.total_samples() + rejected;
+    let rays = backend.rays_traced()?;
     eprintln!(
-        "{}{} spp at {width}×{height} in {:.2} s: {:.3} Msamples/s, {rejected} rejected sample(s), backend {}",
+        "{}{} spp at {width}×{height} in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s, {rejected} rejected sample(s), backend {}",
         if stats.interrupted { "interrupted after " } else { "" },
         stats.spp,
         stats.seconds,
         samples as f64 / stats.seconds.max(1e-9) / 1e6,
+        rays as f64 / stats.seconds.max(1e-9) / 1e6,
         meta.backend
     );
     Ok(())

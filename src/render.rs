@@ -35,6 +35,8 @@ pub trait Backend {
     fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()>;
     /// The film as accumulated so far.
     fn film(&mut self) -> Result<Film>;
+    /// Rays traced so far (camera and bounce rays, and shadow rays), for throughput.
+    fn rays_traced(&mut self) -> Result<u64>;
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -31,7 +31,7 @@ use glam::{Vec2, Vec3};
 use super::fresnel::{fresnel_dielectric, fresnel_schlick};
 use super::lambert::{lambert_eval, lambert_pdf, lambert_sample};
 use super::reflection::{reflection_eval, reflection_half_vector, reflection_pdf, reflection_sample};
-use super::refract;
+use super::refract_through;
 use super::thin_transmission::{
     thin_transmission_eval, thin_transmission_half_vector, thin_transmission_pdf, thin_transmission_sample,
 };
@@ -239,7 +239,7 @@ impl GltfBsdf {
             }
             if self.transmission_is_delta {
                 let (wi, eta2) = if self.volume {
-                    (refract(wo, Vec3::Z, self.eta)?, self.eta * self.eta)
+                    (refract_through(wo, Vec3::Z, self.eta)?, self.eta * self.eta)
                 } else {
                     (-wo, 1.0)
                 };

@@ -34,14 +34,14 @@ pub fn alpha_from_roughness(roughness: f32) -> f32 {
 }
 
 /// Mirror `w` about the normal `n`.
-pub fn reflect(w: glam::Vec3, n: glam::Vec3) -> glam::Vec3 {
+pub fn reflect_about(w: glam::Vec3, n: glam::Vec3) -> glam::Vec3 {
     -w + 2.0 * w.dot(n) * n
 }
 
 /// Refract `wi` (pointing away from the surface, on `n`'s side) through a boundary with
 /// relative index `eta` = η_transmitted / η_incident; `None` on total internal reflection
 /// (pbrt-v4 `Refract`, eq. 9.4).
-pub fn refract(wi: glam::Vec3, n: glam::Vec3, eta: f32) -> Option<glam::Vec3> {
+pub fn refract_through(wi: glam::Vec3, n: glam::Vec3, eta: f32) -> Option<glam::Vec3> {
     let cos_i = wi.dot(n);
     let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
     let sin2_t = sin2_i / (eta * eta);

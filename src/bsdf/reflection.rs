@@ -4,13 +4,13 @@
 use glam::{Vec2, Vec3};
 
 use super::microfacet::{ggx_d, ggx_g2, sample_visible_normal, visible_normal_pdf};
-use super::reflect;
+use super::reflect_about;
 
 /// A direction with density [`reflection_pdf`], or `None` when the mirrored direction falls
 /// below the surface.
 pub fn reflection_sample(wo: Vec3, alpha: f32, u: Vec2) -> Option<Vec3> {
     let m = sample_visible_normal(wo, alpha, u);
-    let wi = reflect(wo, m);
+    let wi = reflect_about(wo, m);
     (wi.z > 0.0).then_some(wi)
 }
 

@@ -7,13 +7,13 @@
 use glam::{Vec2, Vec3};
 
 use super::microfacet::{ggx_d, ggx_g2, sample_visible_normal, visible_normal_pdf};
-use super::refract;
+use super::refract_through;
 
 /// A refracted direction (below the surface) with density [`transmission_pdf`], or `None`
 /// on total internal reflection.
 pub fn transmission_sample(wo: Vec3, alpha: f32, eta: f32, u: Vec2) -> Option<Vec3> {
     let m = sample_visible_normal(wo, alpha, u);
-    let wi = refract(wo, m, eta)?;
+    let wi = refract_through(wo, m, eta)?;
     (wi.z < 0.0).then_some(wi)
 }
 

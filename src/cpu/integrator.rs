@@ -107,14 +107,23 @@ pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> Su
     }
 }
 
-/// One path's radiance estimate along camera ray `ray` (unit direction).
-pub fn radiance(scene: &FlatScene, settings: &IntegratorSettings, mut ray: Ray, rng: &mut Rng) -> Vec3 {
+/// One path's radiance estimate along camera ray `ray` (unit direction). `rays` counts the
+/// rays traced (closest-hit and shadow), as the GPU kernel counts them.
+pub fn radiance(
+    scene: &FlatScene,
+    settings: &IntegratorSettings,
+    mut ray: Ray,
+    rng: &mut Rng,
+    rays: &mut u32,
+) -> Vec3 {
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let mut depth = 0u32;
     let mut prev_delta = true;
     let mut prev_pdf = 0.0f32;
-    while let Some(hit) = intersect_closest(&scene.nodes, &scene.triangles, &ray) {
+    loop {
+        *rays += 1;
+        let Some(hit) = intersect_closest(&scene.nodes, &scene.triangles, &ray) else { break };
         let si = surface_interaction(scene, &ray, &hit);
         let material = &scene.materials[si.material as usize];
 
@@ -153,7 +162,11 @@ pub fn radiance(scene: &FlatScene, settings: &IntegratorSettings, mut ray: Ray, 
             {
                 let wi = si.frame.to_local(ls.wi);
                 let f = bsdf.eval(si.wo, wi);
-                if f.max_element() > 0.0 && !intersect_any(&scene.nodes, &scene.triangles, &ls.shadow_ray) {
+                let unoccluded = f.max_element() > 0.0 && {
+                    *rays += 1;
+                    !intersect_any(&scene.nodes, &scene.triangles, &ls.shadow_ray)
+                };
+                if unoccluded {
                     let contribution = beta * f * wi.z.abs() * ls.radiance;
                     if ls.is_delta {
                         l += contribution / ls.pdf;

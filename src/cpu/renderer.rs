@@ -15,11 +15,18 @@ pub struct CpuBackend<'a> {
     scene: &'a FlatScene,
     settings: RenderSettings,
     film: Film,
+    /// Rays traced per pixel.
+    rays: Vec<u32>,
 }
 
 impl<'a> CpuBackend<'a> {
     pub fn new(scene: &'a FlatScene, settings: &RenderSettings) -> CpuBackend<'a> {
-        CpuBackend { scene, settings: settings.clone(), film: Film::new(settings.width, settings.height) }
+        CpuBackend {
+            scene,
+            settings: settings.clone(),
+            film: Film::new(settings.width, settings.height),
+            rays: vec![0; settings.width as usize * settings.height as usize],
+        }
     }
 }
 
@@ -34,21 +41,36 @@ impl Backend for CpuBackend<'_> {
         let (width, height, seed) = (s.width, s.height, s.seed);
         let integrator =
             IntegratorSettings { max_depth: s.max_depth.unwrap_or(u32::MAX), rr_min_depth: s.rr_min_depth };
-        self.film.pixels.par_chunks_mut(width as usize).enumerate().for_each(|(y, row)| {
-            for (x, pixel) in row.iter_mut().enumerate() {
-                for k in sample_offset..sample_offset + samples {
-                    let mut rng = Rng::new(x as u32, y as u32, k, seed);
-                    let ray =
-                        generate_camera_ray(&scene.camera, width, height, x as u32, y as u32, rng.next_2d());
-                    let l = radiance(scene, &integrator, ray, &mut rng);
-                    film_add_sample(pixel, l);
+        self.film
+            .pixels
+            .par_chunks_mut(width as usize)
+            .zip(self.rays.par_chunks_mut(width as usize))
+            .enumerate()
+            .for_each(|(y, (row, rays))| {
+                for (x, (pixel, rays)) in row.iter_mut().zip(rays).enumerate() {
+                    for k in sample_offset..sample_offset + samples {
+                        let mut rng = Rng::new(x as u32, y as u32, k, seed);
+                        let ray = generate_camera_ray(
+                            &scene.camera,
+                            width,
+                            height,
+                            x as u32,
+                            y as u32,
+                            rng.next_2d(),
+                        );
+                        let l = radiance(scene, &integrator, ray, &mut rng, rays);
+                        film_add_sample(pixel, l);
+                    }
                 }
-            }
-        });
+            });
         Ok(())
     }
 
     fn film(&mut self) -> crate::Result<Film> {
         Ok(self.film.clone())
+    }
+
+    fn rays_traced(&mut self) -> crate::Result<u64> {
+        Ok(self.rays.iter().map(|&r| r as u64).sum())
     }
 }

@@ -53,6 +53,10 @@ pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<Tri
     let kx = if kz == 2 { 0 } else { kz + 1 };
     let ky = if kx == 2 { 0 } else { kx + 1 };
     let d = permute(ray.direction, kx, ky, kz);
+    if d.z == 0.0 {
+        // A zero direction (a shadow ray to its own origin) hits nothing.
+        return None;
+    }
     p0t = permute(p0t, kx, ky, kz);
     p1t = permute(p1t, kx, ky, kz);
     p2t = permute(p2t, kx, ky, kz);

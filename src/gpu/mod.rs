@@ -1,3 +1,11 @@
-//! The GPU megakernel backend (wgpu on Vulkan).
+//! The GPU megakernel backend: WGSL compute shaders (`shaders/`) run through wgpu on Vulkan,
+//! specialised to each scene's features, rendering from the same flat arrays as the CPU
+//! reference.
 
+pub mod context;
 pub mod layout;
+mod renderer;
+pub mod shader;
+
+pub use context::{describe_adapter, enumerate_adapters, GpuContext, Kernel};
+pub use renderer::GpuBackend;

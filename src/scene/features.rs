@@ -45,7 +45,7 @@ impl SceneFeatures {
             // The dielectric specular layer vanishes only when specularFactor is 0; a metal
             // lobe needs metallic > 0.
             f.specular |= m.metallic > 0.0 || m.specular_factor > 0.0;
-            f.transmission |= m.transmission > 0.0 && m.metallic < 1.0;
+            f.transmission |= m.transmission > 0.0;
             f.volume |= m.flags & MATERIAL_VOLUME != 0;
         }
         for l in lights {

@@ -154,13 +154,36 @@ pub fn render(backend: &mut dyn pathlight::Backend, spp: u32) -> pathlight::film
     backend.film().unwrap()
 }
 
-/// Mean over all pixel channels and its standard error (pixels are independent, so the
-/// variance of the image mean is Σ var(mean_i) / N²).
-pub fn image_mean_and_standard_error(film: &pathlight::film::Film) -> (f64, f64) {
+/// Per channel: the mean over all pixels and its standard error. Pixels are independent (each
+/// has its own random streams), so the variance of the image mean is Σ var(mean_i) / N². The
+/// channels of one pixel share paths and are correlated, so each is tested on its own.
+pub fn image_mean_and_standard_error(film: &pathlight::film::Film) -> [(f64, f64); 3] {
     let means = film.mean();
     let vars = film.variance_of_mean();
-    let n = (means.len() * 3) as f64;
-    let mean = means.iter().map(|m| (m.x + m.y + m.z) as f64).sum::<f64>() / n;
-    let var = vars.iter().map(|v| (v.x + v.y + v.z) as f64).sum::<f64>() / (n * n);
-    (mean, var.sqrt())
+    let n = means.len() as f64;
+    [0, 1, 2].map(|c| {
+        let mean = means.iter().map(|m| m[c] as f64).sum::<f64>() / n;
+        let var = vars.iter().map(|v| v[c] as f64).sum::<f64>() / (n * n);
+        (mean, var.sqrt())
+    })
+}
+
+/// The GPU every GPU test shares (creating a device per test would waste seconds each), or
+/// `None` after saying loudly that the test was skipped. With `CI=true`, a missing adapter
+/// fails the test instead: CI must run these on lavapipe.
+pub fn gpu() -> Option<std::sync::Arc<pathlight::gpu::GpuContext>> {
+    use std::sync::{Arc, OnceLock};
+    static GPU: OnceLock<Result<Arc<pathlight::gpu::GpuContext>, String>> = OnceLock::new();
+    let ctx =
+        GPU.get_or_init(|| pathlight::gpu::GpuContext::new(None).map(Arc::new).map_err(|e| e.to_string()));
+    match ctx {
+        Ok(c) => Some(c.clone()),
+        Err(e) if std::env::var("CI").as_deref() == Ok("true") => {
+            panic!("CI=true but no usable GPU: {e} (install mesa-vulkan-drivers for lavapipe)")
+        }
+        Err(e) => {
+            eprintln!("SKIPPED: no usable GPU ({e}); this GPU test did not run");
+            None
+        }
+    }
 }

@@ -1,0 +1,446 @@
+// Twin of src/bsdf/: the glTF 2.0 BSDF with KHR_materials_specular, _ior, _transmission and
+// _volume. The comments in src/bsdf/gltf.rs define the model; this file mirrors it function
+// by function. Optional results use vec4 with w = 1 for "valid".
+
+const MIN_ALPHA: f32 = 1e-4;
+const LOBE_SELECTION_FLOOR: f32 = 0.05;
+
+fn reflect_about(w: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return -w + 2.0 * dot(w, n) * n;
+}
+
+// pbrt-v4 `Refract`; w = 0 on total internal reflection.
+fn refract_through(wi: vec3<f32>, n: vec3<f32>, eta: f32) -> vec4<f32> {
+    let cos_i = dot(wi, n);
+    let sin2_i = max(1.0 - cos_i * cos_i, 0.0);
+    let sin2_t = sin2_i / (eta * eta);
+    if (sin2_t >= 1.0) {
+        return vec4<f32>(0.0);
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    return vec4<f32>(-wi / eta + (cos_i / eta - cos_t) * n, 1.0);
+}
+
+// ---- fresnel.rs
+
+fn fresnel_schlick(f0: vec3<f32>, f90: f32, cos_theta: f32) -> vec3<f32> {
+    let m = pow(1.0 - clamp(cos_theta, 0.0, 1.0), 5.0);
+    return f0 + (vec3<f32>(f90) - f0) * m;
+}
+
+fn fresnel_dielectric(cos_theta_i: f32, eta_in: f32) -> f32 {
+    var cos_i = clamp(cos_theta_i, -1.0, 1.0);
+    var eta = eta_in;
+    if (cos_i < 0.0) {
+        eta = 1.0 / eta;
+        cos_i = -cos_i;
+    }
+    let sin2_i = 1.0 - cos_i * cos_i;
+    let sin2_t = sin2_i / (eta * eta);
+    if (sin2_t >= 1.0) {
+        return 1.0;
+    }
+    let cos_t = sqrt(max(1.0 - sin2_t, 0.0));
+    let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    return (r_parl * r_parl + r_perp * r_perp) / 2.0;
+}
+
+// ---- microfacet.rs
+
+fn ggx_d(m: vec3<f32>, alpha: f32) -> f32 {
+    if (m.z <= 0.0) {
+        return 0.0;
+    }
+    let a2 = alpha * alpha;
+    let d = m.z * m.z * (a2 - 1.0) + 1.0;
+    return a2 / (PI * d * d);
+}
+
+fn smith_root(cos_theta: f32, alpha: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let c2 = cos_theta * cos_theta;
+    return sqrt(max(a2 + (1.0 - a2) * c2, 0.0));
+}
+
+fn ggx_g1(w: vec3<f32>, alpha: f32) -> f32 {
+    let c = abs(w.z);
+    let denom = c + smith_root(c, alpha);
+    if (denom <= 0.0) {
+        return 0.0;
+    }
+    return 2.0 * c / denom;
+}
+
+fn ggx_g2(wo: vec3<f32>, wi: vec3<f32>, alpha: f32) -> f32 {
+    let co = abs(wo.z);
+    let ci = abs(wi.z);
+    let denom = ci * smith_root(co, alpha) + co * smith_root(ci, alpha);
+    if (denom <= 0.0) {
+        return 0.0;
+    }
+    return 2.0 * co * ci / denom;
+}
+
+fn visible_normal_pdf(wo: vec3<f32>, m: vec3<f32>, alpha: f32) -> f32 {
+    let cos_o = abs(wo.z);
+    if (cos_o == 0.0) {
+        return 0.0;
+    }
+    return ggx_g1(wo, alpha) * max(dot(wo, m), 0.0) * ggx_d(m, alpha) / cos_o;
+}
+
+// Dupuy & Benyoub 2023, spherical caps.
+fn sample_visible_normal(wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
+    let wi_std = normalize(vec3<f32>(wo.x * alpha, wo.y * alpha, wo.z));
+    let phi = 2.0 * PI * u.x;
+    let z = fma(1.0 - u.y, 1.0 + wi_std.z, -wi_std.z);
+    let sin_theta = sqrt(clamp(1.0 - z * z, 0.0, 1.0));
+    let c = vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), z);
+    let h = c + wi_std;
+    return normalize(vec3<f32>(h.x * alpha, h.y * alpha, max(h.z, 0.0)));
+}
+
+// ---- lambert.rs
+
+fn lambert_sample(u: vec2<f32>) -> vec3<f32> {
+    return sample_cosine_hemisphere(u);
+}
+
+fn lambert_eval(wi: vec3<f32>) -> f32 {
+    return select(0.0, INV_PI, wi.z > 0.0);
+}
+
+fn lambert_pdf(wi: vec3<f32>) -> f32 {
+    return cosine_hemisphere_pdf(wi.z);
+}
+
+// ---- reflection.rs
+
+fn reflection_sample(wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec4<f32> {
+    let m = sample_visible_normal(wo, alpha, u);
+    let wi = reflect_about(wo, m);
+    return vec4<f32>(wi, select(0.0, 1.0, wi.z > 0.0));
+}
+
+fn reflection_half_vector(wo: vec3<f32>, wi: vec3<f32>) -> vec4<f32> {
+    if (wo.z <= 0.0 || wi.z <= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    return try_normalize(wo + wi);
+}
+
+fn reflection_eval(wo: vec3<f32>, wi: vec3<f32>, alpha: f32) -> f32 {
+    let m = reflection_half_vector(wo, wi);
+    if (m.w == 0.0) {
+        return 0.0;
+    }
+    return ggx_d(m.xyz, alpha) * ggx_g2(wo, wi, alpha) / (4.0 * wo.z * wi.z);
+}
+
+fn reflection_pdf(wo: vec3<f32>, wi: vec3<f32>, alpha: f32) -> f32 {
+    let m = reflection_half_vector(wo, wi);
+    if (m.w == 0.0) {
+        return 0.0;
+    }
+    let wo_m = abs(dot(wo, m.xyz));
+    if (wo_m == 0.0) {
+        return 0.0;
+    }
+    return visible_normal_pdf(wo, m.xyz, alpha) / (4.0 * wo_m);
+}
+
+// ---- transmission.rs
+
+fn transmission_sample(wo: vec3<f32>, alpha: f32, eta: f32, u: vec2<f32>) -> vec4<f32> {
+    let m = sample_visible_normal(wo, alpha, u);
+    let wi = refract_through(wo, m, eta);
+    if (wi.w == 0.0 || wi.z >= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    return wi;
+}
+
+fn transmission_half_vector(wo: vec3<f32>, wi: vec3<f32>, eta: f32) -> vec4<f32> {
+    if (wo.z <= 0.0 || wi.z >= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    var m = try_normalize(wi * eta + wo);
+    if (m.w == 0.0) {
+        return m;
+    }
+    if (m.z < 0.0) {
+        m = vec4<f32>(-m.xyz, 1.0);
+    }
+    if (dot(wo, m.xyz) <= 0.0 || dot(wi, m.xyz) >= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    return m;
+}
+
+fn transmission_eval(wo: vec3<f32>, wi: vec3<f32>, alpha: f32, eta: f32) -> f32 {
+    let m = transmission_half_vector(wo, wi, eta);
+    if (m.w == 0.0) {
+        return 0.0;
+    }
+    let wi_m = dot(wi, m.xyz);
+    let wo_m = dot(wo, m.xyz);
+    let s = wi_m + wo_m / eta;
+    let denom = s * s * abs(wi.z) * wo.z;
+    if (denom == 0.0) {
+        return 0.0;
+    }
+    return ggx_d(m.xyz, alpha) * ggx_g2(wo, wi, alpha) * abs(wi_m * wo_m) / denom / (eta * eta);
+}
+
+fn transmission_pdf(wo: vec3<f32>, wi: vec3<f32>, alpha: f32, eta: f32) -> f32 {
+    let m = transmission_half_vector(wo, wi, eta);
+    if (m.w == 0.0) {
+        return 0.0;
+    }
+    let wi_m = dot(wi, m.xyz);
+    let s = wi_m + dot(wo, m.xyz) / eta;
+    let denom = s * s;
+    if (denom == 0.0) {
+        return 0.0;
+    }
+    return visible_normal_pdf(wo, m.xyz, alpha) * abs(wi_m) / denom;
+}
+
+// ---- thin_transmission.rs
+
+fn mirror_z(w: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(w.x, w.y, -w.z);
+}
+
+fn thin_transmission_sample(wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec4<f32> {
+    let r = reflection_sample(wo, alpha, u);
+    return vec4<f32>(mirror_z(r.xyz), r.w);
+}
+
+fn thin_transmission_half_vector(wo: vec3<f32>, wi: vec3<f32>) -> vec4<f32> {
+    if (wi.z >= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    return reflection_half_vector(wo, mirror_z(wi));
+}
+
+fn thin_transmission_eval(wo: vec3<f32>, wi: vec3<f32>, alpha: f32) -> f32 {
+    if (wi.z >= 0.0) {
+        return 0.0;
+    }
+    return reflection_eval(wo, mirror_z(wi), alpha);
+}
+
+fn thin_transmission_pdf(wo: vec3<f32>, wi: vec3<f32>, alpha: f32) -> f32 {
+    if (wi.z >= 0.0) {
+        return 0.0;
+    }
+    return reflection_pdf(wo, mirror_z(wi), alpha);
+}
+
+// ---- gltf.rs
+
+struct GltfBsdf {
+    base_color: vec3<f32>,
+    metallic: f32,
+    alpha: f32,
+    transmission: f32,
+    specular_factor: f32,
+    specular_color: vec3<f32>,
+    f0_dielectric: vec3<f32>,
+    eta: f32,
+    volume: bool,
+    transmission_is_delta: bool,
+    p_reflect: f32,
+    p_diffuse: f32,
+    p_transmit: f32,
+}
+
+struct BsdfSample {
+    wi: vec3<f32>,
+    weight: vec3<f32>,
+    pdf_solid_angle: f32,
+    is_delta: bool,
+    valid: bool,
+}
+
+fn no_bsdf_sample() -> BsdfSample {
+    return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false, false);
+}
+
+fn lobe_weight(present: bool, estimate: f32) -> f32 {
+    return select(0.0, max(estimate, LOBE_SELECTION_FLOOR), present);
+}
+
+fn gltf_bsdf_new(m: Material, cos_theta_o: f32, front_face: bool) -> GltfBsdf {
+    let ior = m.ior;
+    // Transmission is compiled out of scenes that have none (FEATURE_TRANSMISSION = false);
+    // then `transmission` reads as 0 and every transmissive branch below is dead code.
+    let transmission = select(0.0, m.transmission, FEATURE_TRANSMISSION);
+    let volume = FEATURE_VOLUME && (m.flags & MATERIAL_VOLUME) != 0u && transmission > 0.0;
+    let eta = select(ior, 1.0 / ior, volume && !front_face);
+    let r = (ior - 1.0) / (ior + 1.0);
+    let r0 = r * r;
+    var b: GltfBsdf;
+    b.base_color = m.base_color;
+    b.metallic = m.metallic;
+    b.alpha = m.alpha_roughness;
+    b.transmission = transmission;
+    b.specular_factor = m.specular_factor;
+    b.specular_color = m.specular_color;
+    b.f0_dielectric = min(r0 * m.specular_color, vec3<f32>(1.0)) * m.specular_factor;
+    b.eta = eta;
+    b.volume = volume;
+    b.transmission_is_delta = m.alpha_roughness == 0.0 || (volume && eta == 1.0);
+    let f = max_element(dielectric_fresnel(b, cos_theta_o));
+    let dielectric = 1.0 - b.metallic;
+    let color = max_element(b.base_color);
+    let reflect_present = FEATURE_SPECULAR && (b.metallic > 0.0 || b.specular_factor > 0.0);
+    let diffuse_present = dielectric * (1.0 - b.transmission) > 0.0 && color > 0.0;
+    let transmit_present = dielectric * b.transmission > 0.0 && color > 0.0;
+    let w_r = lobe_weight(reflect_present, b.metallic + dielectric * f);
+    let w_d = lobe_weight(diffuse_present, dielectric * (1.0 - b.transmission) * (1.0 - f) * color);
+    let w_t = lobe_weight(transmit_present, dielectric * b.transmission * (1.0 - f) * color);
+    let total = w_r + w_d + w_t;
+    b.p_reflect = 0.0;
+    b.p_diffuse = 0.0;
+    b.p_transmit = 0.0;
+    if (total > 0.0) {
+        b.p_reflect = w_r / total;
+        b.p_diffuse = w_d / total;
+        b.p_transmit = w_t / total;
+    }
+    return b;
+}
+
+fn dielectric_fresnel(b: GltfBsdf, cos_theta: f32) -> vec3<f32> {
+    if (b.transmission > 0.0) {
+        return b.specular_factor * min(b.specular_color, vec3<f32>(1.0)) * fresnel_dielectric(cos_theta, b.eta);
+    }
+    return fresnel_schlick(b.f0_dielectric, b.specular_factor, cos_theta);
+}
+
+fn metal_fresnel(b: GltfBsdf, cos_theta: f32) -> vec3<f32> {
+    return fresnel_schlick(b.base_color, 1.0, cos_theta);
+}
+
+fn has_non_delta(b: GltfBsdf) -> bool {
+    return b.p_diffuse > 0.0 || (b.p_reflect > 0.0 && b.alpha > 0.0) || (b.p_transmit > 0.0 && !b.transmission_is_delta);
+}
+
+fn gltf_bsdf_eval(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    if (wo.z <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let dielectric = 1.0 - b.metallic;
+    if (wi.z > 0.0) {
+        let h = reflection_half_vector(wo, wi);
+        if (h.w == 0.0) {
+            return vec3<f32>(0.0);
+        }
+        let cos_h = dot(wo, h.xyz);
+        let fd = dielectric_fresnel(b, cos_h);
+        let diffuse = b.base_color * (1.0 - b.transmission) * lambert_eval(wi);
+        var f = dielectric * (1.0 - max_element(fd)) * diffuse;
+        if (FEATURE_SPECULAR && b.alpha > 0.0 && b.p_reflect > 0.0) {
+            let spec = reflection_eval(wo, wi, b.alpha);
+            f += (dielectric * fd + b.metallic * metal_fresnel(b, cos_h)) * spec;
+        }
+        return f;
+    }
+    if (FEATURE_TRANSMISSION && wi.z < 0.0 && b.p_transmit > 0.0 && !b.transmission_is_delta) {
+        let weight = dielectric * b.transmission * b.base_color;
+        if (b.volume) {
+            let h = transmission_half_vector(wo, wi, b.eta);
+            if (h.w == 0.0) {
+                return vec3<f32>(0.0);
+            }
+            let fd = dielectric_fresnel(b, dot(wo, h.xyz));
+            return weight * (1.0 - max_element(fd)) * transmission_eval(wo, wi, b.alpha, b.eta);
+        }
+        let h = thin_transmission_half_vector(wo, wi);
+        if (h.w == 0.0) {
+            return vec3<f32>(0.0);
+        }
+        let fd = dielectric_fresnel(b, dot(wo, h.xyz));
+        return weight * (1.0 - max_element(fd)) * thin_transmission_eval(wo, wi, b.alpha);
+    }
+    return vec3<f32>(0.0);
+}
+
+fn gltf_bsdf_pdf(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    if (wo.z <= 0.0) {
+        return 0.0;
+    }
+    if (wi.z > 0.0) {
+        var p = b.p_diffuse * lambert_pdf(wi);
+        if (FEATURE_SPECULAR && b.alpha > 0.0 && b.p_reflect > 0.0) {
+            p += b.p_reflect * reflection_pdf(wo, wi, b.alpha);
+        }
+        return p;
+    }
+    if (FEATURE_TRANSMISSION && wi.z < 0.0 && b.p_transmit > 0.0 && !b.transmission_is_delta) {
+        if (b.volume) {
+            return b.p_transmit * transmission_pdf(wo, wi, b.alpha, b.eta);
+        }
+        return b.p_transmit * thin_transmission_pdf(wo, wi, b.alpha);
+    }
+    return 0.0;
+}
+
+fn gltf_bsdf_sample(b: GltfBsdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BsdfSample {
+    if (wo.z <= 0.0) {
+        return no_bsdf_sample();
+    }
+    let dielectric = 1.0 - b.metallic;
+    var wi: vec3<f32>;
+    if (u_lobe < b.p_reflect) {
+        if (b.alpha == 0.0) {
+            let f = dielectric * dielectric_fresnel(b, wo.z) + b.metallic * metal_fresnel(b, wo.z);
+            return BsdfSample(vec3<f32>(-wo.x, -wo.y, wo.z), f / b.p_reflect, b.p_reflect, true, true);
+        }
+        let s = reflection_sample(wo, b.alpha, u);
+        if (s.w == 0.0) {
+            return no_bsdf_sample();
+        }
+        wi = s.xyz;
+    } else if (u_lobe < b.p_reflect + b.p_diffuse) {
+        wi = lambert_sample(u);
+    } else {
+        if (!FEATURE_TRANSMISSION || b.p_transmit <= 0.0) {
+            return no_bsdf_sample();
+        }
+        if (b.transmission_is_delta) {
+            var wt = -wo;
+            var eta2 = 1.0;
+            if (b.volume) {
+                let r = refract_through(wo, vec3<f32>(0.0, 0.0, 1.0), b.eta);
+                if (r.w == 0.0) {
+                    return no_bsdf_sample();
+                }
+                wt = r.xyz;
+                eta2 = b.eta * b.eta;
+            }
+            let fd = dielectric_fresnel(b, wo.z);
+            let t = dielectric * b.transmission * b.base_color * (1.0 - max_element(fd)) / eta2;
+            return BsdfSample(wt, t / b.p_transmit, b.p_transmit, true, true);
+        }
+        var s: vec4<f32>;
+        if (b.volume) {
+            s = transmission_sample(wo, b.alpha, b.eta, u);
+        } else {
+            s = thin_transmission_sample(wo, b.alpha, u);
+        }
+        if (s.w == 0.0) {
+            return no_bsdf_sample();
+        }
+        wi = s.xyz;
+    }
+    let pdf = gltf_bsdf_pdf(b, wo, wi);
+    if (!(pdf > 0.0)) {
+        return no_bsdf_sample();
+    }
+    let f = gltf_bsdf_eval(b, wo, wi);
+    return BsdfSample(wi, f * abs(wi.z) / pdf, pdf, false, true);
+}

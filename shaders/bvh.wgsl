@@ -1,0 +1,104 @@
+// Twin of src/bvh/traverse.rs: stack-based traversal of the flat BVH, nearer child first.
+
+const TRAVERSAL_STACK_SIZE: u32 = 64u;
+
+// Rays this invocation has traced (closest-hit and any-hit), for throughput reporting.
+var<private> rays_traced: u32;
+
+struct ClosestHit {
+    triangle: u32,
+    b: vec3<f32>,
+    t: f32,
+}
+
+fn node_triangle_count(n: BvhNode) -> u32 {
+    return n.count_axis & 0xffffu;
+}
+
+fn node_axis(n: BvhNode) -> u32 {
+    return (n.count_axis >> 16u) & 3u;
+}
+
+fn intersect_closest(ray_in: Ray) -> ClosestHit {
+    rays_traced += 1u;
+    var ray = ray_in;
+    var best = ClosestHit(INVALID_INDEX, vec3<f32>(0.0), 0.0);
+    let dir_is_neg = ray.direction < vec3<f32>(0.0);
+    let pre = ray_box_precomp(ray);
+    var stack: array<u32, TRAVERSAL_STACK_SIZE>;
+    var sp = 0u;
+    var current = 0u;
+    loop {
+        let node = nodes[current];
+        if (intersect_box(pre, ray.t_max, node.bounds_min, node.bounds_max)) {
+            let count = node_triangle_count(node);
+            if (count > 0u) {
+                for (var i = node.offset; i < node.offset + count; i++) {
+                    let tri = triangles[i];
+                    let hit = intersect_triangle(ray, tri.p0, tri.p1, tri.p2);
+                    if (hit.valid) {
+                        ray.t_max = hit.t;
+                        best = ClosestHit(i, hit.b, hit.t);
+                    }
+                }
+            } else {
+                var near = current + 1u;
+                var far = node.offset;
+                if (dir_is_neg[node_axis(node)]) {
+                    near = node.offset;
+                    far = current + 1u;
+                }
+                stack[sp] = far;
+                sp += 1u;
+                current = near;
+                continue;
+            }
+        }
+        if (sp == 0u) {
+            break;
+        }
+        sp -= 1u;
+        current = stack[sp];
+    }
+    return best;
+}
+
+fn intersect_any(ray: Ray) -> bool {
+    rays_traced += 1u;
+    let dir_is_neg = ray.direction < vec3<f32>(0.0);
+    let pre = ray_box_precomp(ray);
+    var stack: array<u32, TRAVERSAL_STACK_SIZE>;
+    var sp = 0u;
+    var current = 0u;
+    loop {
+        let node = nodes[current];
+        if (intersect_box(pre, ray.t_max, node.bounds_min, node.bounds_max)) {
+            let count = node_triangle_count(node);
+            if (count > 0u) {
+                for (var i = node.offset; i < node.offset + count; i++) {
+                    let tri = triangles[i];
+                    if (intersect_triangle(ray, tri.p0, tri.p1, tri.p2).valid) {
+                        return true;
+                    }
+                }
+            } else {
+                var near = current + 1u;
+                var far = node.offset;
+                if (dir_is_neg[node_axis(node)]) {
+                    near = node.offset;
+                    far = current + 1u;
+                }
+                stack[sp] = far;
+                sp += 1u;
+                current = near;
+                continue;
+            }
+        }
+        if (sp == 0u) {
+            break;
+        }
+        sp -= 1u;
+        current = stack[sp];
+    }
+    return false;
+}

@@ -1,0 +1,11 @@
+// Scene specialisation (src/scene/features.rs): the host sets each override to whether the
+// scene uses the feature, so the code for lobes and lights a scene does not have is
+// constant-folded away when the pipeline is compiled. The defaults build the general kernel.
+
+override FEATURE_SPECULAR: bool = true;
+override FEATURE_TRANSMISSION: bool = true;
+override FEATURE_VOLUME: bool = true;
+override FEATURE_EMISSIVE_TRIANGLES: bool = true;
+override FEATURE_POINT_LIGHTS: bool = true;
+override FEATURE_SPOT_LIGHTS: bool = true;
+override FEATURE_DIRECTIONAL_LIGHTS: bool = true;

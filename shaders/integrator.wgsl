@@ -1,0 +1,169 @@
+// Twin of src/cpu/integrator.rs: unidirectional path tracing with next-event estimation,
+// MIS (power heuristic) and Russian roulette, and the megakernel's entry points. Bounce
+// semantics, random-number order and every guard match the CPU reference.
+
+const MAX_BOUNCES_GUARD: u32 = 1024u;
+const RR_MAX_SURVIVAL: f32 = 0.95;
+
+struct SurfaceInteraction {
+    p: vec3<f32>,
+    p_error: vec3<f32>,
+    n_geometric: vec3<f32>,
+    frame: Frame,
+    wo: vec3<f32>,
+    front_face: bool,
+    material: u32,
+    emitter: u32,
+    distance: f32,
+}
+
+fn surface_interaction(ray: Ray, hit: ClosestHit) -> SurfaceInteraction {
+    let tri = triangles[hit.triangle];
+    let b = hit.b;
+    let p = b.x * tri.p0 + b.y * tri.p1 + b.z * tri.p2;
+    let p_error = triangle_error_bound(b, tri.p0, tri.p1, tri.p2);
+    let n_geometric = normalize(cross(tri.p1 - tri.p0, tri.p2 - tri.p0));
+    let wo_world = -ray.direction;
+    let front_face = dot(wo_world, n_geometric) > 0.0;
+    let ng_facing = select(-n_geometric, n_geometric, front_face);
+    var ns = ng_facing;
+    if ((tri.flags & TRIANGLE_HAS_NORMALS) != 0u) {
+        let n = normals[hit.triangle];
+        let interpolated = try_normalize(b.x * oct_decode(n.n0) + b.y * oct_decode(n.n1) + b.z * oct_decode(n.n2));
+        if (interpolated.w != 0.0) {
+            var s = interpolated.xyz;
+            if (dot(s, ng_facing) < 0.0) {
+                s = -s;
+            }
+            if (dot(s, wo_world) > 0.0) {
+                ns = s;
+            }
+        }
+    }
+    let f = frame_from_z(ns);
+    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), front_face, tri.material, tri.emitter, hit.t);
+}
+
+// A NaN, to poison a sample whose throughput stopped being finite (the film rejects it).
+fn poison() -> vec3<f32> {
+    return vec3<f32>(bitcast<f32>(0x7fc00000u));
+}
+
+fn radiance(camera_ray: Ray) -> vec3<f32> {
+    var ray = camera_ray;
+    var l = vec3<f32>(0.0);
+    var beta = vec3<f32>(1.0);
+    var depth = 0u;
+    var prev_delta = true;
+    var prev_pdf = 0.0;
+    loop {
+        let hit = intersect_closest(ray);
+        if (hit.triangle == INVALID_INDEX) {
+            break;
+        }
+        let si = surface_interaction(ray, hit);
+        let material = materials[si.material];
+
+        if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
+            beta *= exp(-material.attenuation_coefficient * si.distance);
+        }
+
+        if (max_element(material.emission) > 0.0 && (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
+            if (depth == 0u || prev_delta || si.emitter == INVALID_INDEX) {
+                l += beta * material.emission;
+            } else {
+                let light_pdf = triangle_light_pdf(lights[si.emitter], triangles[hit.triangle], ray.origin, si.p);
+                l += beta * material.emission * power_heuristic(prev_pdf, light_pdf);
+            }
+        }
+
+        if (depth >= frame.max_depth || depth >= MAX_BOUNCES_GUARD) {
+            break;
+        }
+        let bsdf = gltf_bsdf_new(material, si.wo.z, si.front_face);
+
+        if (has_non_delta(bsdf) && frame.light_count > 0u) {
+            let u_select = rng_next_2d();
+            let u_light = rng_next_2d();
+            let ls = sample_light(si.p, si.p_error, si.n_geometric, u_select, u_light);
+            if (ls.valid) {
+                let wi = frame_to_local(si.frame, ls.wi);
+                let f = gltf_bsdf_eval(bsdf, si.wo, wi);
+                if (max_element(f) > 0.0 && !intersect_any(ls.shadow_ray)) {
+                    let contribution = beta * f * abs(wi.z) * ls.radiance;
+                    if (ls.is_delta) {
+                        l += contribution / ls.pdf;
+                    } else {
+                        let w = power_heuristic(ls.pdf, gltf_bsdf_pdf(bsdf, si.wo, wi));
+                        l += contribution * w / ls.pdf;
+                    }
+                }
+            }
+        }
+
+        let u_lobe = rng_next_1d();
+        let u_dir = rng_next_2d();
+        let bs = gltf_bsdf_sample(bsdf, si.wo, u_lobe, u_dir);
+        if (!bs.valid) {
+            break;
+        }
+        beta *= bs.weight;
+        prev_delta = bs.is_delta;
+        prev_pdf = bs.pdf_solid_angle;
+        depth += 1u;
+        let wi_world = normalize(frame_from_local(si.frame, bs.wi));
+        ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
+
+        if (depth >= frame.rr_min_depth) {
+            let q = min(max_element(beta), RR_MAX_SURVIVAL);
+            if (!(q > 0.0) || rng_next_1d() >= q) {
+                break;
+            }
+            beta /= q;
+        }
+        if (!is_finite_vec3(beta)) {
+            return poison();
+        }
+    }
+    return l;
+}
+
+// One invocation per pixel of rows [row_offset, row_offset + row_count): adds `samples`
+// samples, starting at index `sample_offset`, to the pixel's running statistics.
+@compute @workgroup_size(8, 8, 1)
+fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y + frame.row_offset;
+    if (x >= frame.width || gid.y >= frame.row_count || y >= frame.height) {
+        return;
+    }
+    let pixel = y * frame.width + x;
+    var p = film[pixel];
+    rays_traced = 0u;
+    for (var k = 0u; k < frame.samples; k++) {
+        rng_seed(x, y, frame.sample_offset + k, frame.seed);
+        let ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
+        p = film_add_sample(p, radiance(ray));
+    }
+    film[pixel] = p;
+    ray_counts[pixel] += rays_traced;
+}
+
+// What the camera ray of sample 0 hits: the first-hit AOV (distance, normal, albedo).
+@compute @workgroup_size(8, 8, 1)
+fn first_hit(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y + frame.row_offset;
+    if (x >= frame.width || gid.y >= frame.row_count || y >= frame.height) {
+        return;
+    }
+    rng_seed(x, y, 0u, frame.seed);
+    let ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
+    let hit = intersect_closest(ray);
+    var out = FirstHit(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), INVALID_INDEX);
+    if (hit.triangle != INVALID_INDEX) {
+        let si = surface_interaction(ray, hit);
+        out = FirstHit(si.frame.z, si.distance, materials[si.material].base_color, hit.triangle);
+    }
+    first_hits[y * frame.width + x] = out;
+}

@@ -1,0 +1,103 @@
+// Twin of src/gpu/layout.rs: every struct and constant the kernels share with the host.
+// The test `layout_matches_wgsl` (src/gpu/shader.rs) parses this file with naga and checks
+// each struct's size and field offsets, and each constant's value, against the Rust ones.
+
+struct BvhNode {
+    bounds_min: vec3<f32>,
+    offset: u32,
+    bounds_max: vec3<f32>,
+    count_axis: u32,
+}
+
+struct Triangle {
+    p0: vec3<f32>,
+    material: u32,
+    p1: vec3<f32>,
+    emitter: u32,
+    p2: vec3<f32>,
+    flags: u32,
+}
+
+struct TriangleNormals {
+    n0: u32,
+    n1: u32,
+    n2: u32,
+    _pad0: u32,
+}
+
+struct Material {
+    base_color: vec3<f32>,
+    alpha: f32,
+    emission: vec3<f32>,
+    flags: u32,
+    specular_color: vec3<f32>,
+    specular_factor: f32,
+    attenuation_coefficient: vec3<f32>,
+    ior: f32,
+    metallic: f32,
+    alpha_roughness: f32,
+    transmission: f32,
+    _pad0: f32,
+}
+
+struct Light {
+    position: vec3<f32>,
+    kind: u32,
+    direction: vec3<f32>,
+    triangle: u32,
+    intensity: vec3<f32>,
+    pmf: f32,
+    cos_outer: f32,
+    spot_scale: f32,
+    alias_probability: f32,
+    alias_index: u32,
+}
+
+struct Camera {
+    right: vec3<f32>,
+    projection: u32,
+    up: vec3<f32>,
+    half_height: f32,
+    forward: vec3<f32>,
+    half_width: f32,
+}
+
+struct FrameParams {
+    width: u32,
+    height: u32,
+    sample_offset: u32,
+    samples: u32,
+    seed: u32,
+    max_depth: u32,
+    rr_min_depth: u32,
+    light_count: u32,
+    row_offset: u32,
+    row_count: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+struct FilmPixel {
+    mean: vec3<f32>,
+    count: u32,
+    m2: vec3<f32>,
+    rejected: u32,
+}
+
+struct FirstHit {
+    normal: vec3<f32>,
+    distance: f32,
+    albedo: vec3<f32>,
+    triangle: u32,
+}
+
+const INVALID_INDEX: u32 = 0xffffffffu;
+const TRIANGLE_HAS_NORMALS: u32 = 1u;
+const MATERIAL_DOUBLE_SIDED: u32 = 1u;
+const MATERIAL_VOLUME: u32 = 2u;
+const LIGHT_TRIANGLE: u32 = 0u;
+const LIGHT_POINT: u32 = 1u;
+const LIGHT_SPOT: u32 = 2u;
+const LIGHT_DIRECTIONAL: u32 = 3u;
+const PROJECTION_PERSPECTIVE: u32 = 0u;
+const PROJECTION_ORTHOGRAPHIC: u32 = 1u;

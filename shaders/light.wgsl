@@ -1,0 +1,103 @@
+// Twin of src/light/mod.rs: next-event estimation's light sampling.
+
+struct LightSample {
+    wi: vec3<f32>,
+    radiance: vec3<f32>,
+    pdf: f32,
+    is_delta: bool,
+    shadow_ray: Ray,
+    valid: bool,
+}
+
+fn no_light_sample() -> LightSample {
+    return LightSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false, Ray(vec3<f32>(0.0), vec3<f32>(0.0), 0.0), false);
+}
+
+fn choose_light(u: vec2<f32>) -> u32 {
+    let n = frame.light_count;
+    let i = min(u32(u.x * f32(n)), n - 1u);
+    if (u.y < lights[i].alias_probability) {
+        return i;
+    }
+    return lights[i].alias_index;
+}
+
+// Unit geometric normal (xyz) and area (w).
+fn triangle_normal_area(t: Triangle) -> vec4<f32> {
+    let c = cross(t.p1 - t.p0, t.p2 - t.p0);
+    let len = length(c);
+    if (len == 0.0) {
+        return vec4<f32>(0.0, 0.0, 1.0, 0.0);
+    }
+    return vec4<f32>(c / len, 0.5 * len);
+}
+
+fn spot_falloff(light: Light, cos_theta: f32) -> f32 {
+    let t = clamp((cos_theta - light.cos_outer) * light.spot_scale, 0.0, 1.0);
+    return t * t;
+}
+
+fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_select: vec2<f32>, u_point: vec2<f32>) -> LightSample {
+    if (frame.light_count == 0u) {
+        return no_light_sample();
+    }
+    let light = lights[choose_light(u_select)];
+    let pmf = light.pmf;
+    if (!(pmf > 0.0)) {
+        return no_light_sample();
+    }
+    if (FEATURE_EMISSIVE_TRIANGLES && light.kind == LIGHT_TRIANGLE) {
+        let tri = triangles[light.triangle];
+        let material = materials[tri.material];
+        let b = sample_uniform_triangle(u_point);
+        let q = b.x * tri.p0 + b.y * tri.p1 + b.z * tri.p2;
+        let q_error = gamma(6) * (abs(b.x * tri.p0) + abs(b.y * tri.p1) + abs(b.z * tri.p2));
+        let na = triangle_normal_area(tri);
+        let to_light = q - p;
+        let dist2 = dot(to_light, to_light);
+        if (dist2 == 0.0 || na.w == 0.0) {
+            return no_light_sample();
+        }
+        let wi = to_light / sqrt(dist2);
+        let cos_light = -dot(wi, na.xyz);
+        let double_sided = (material.flags & MATERIAL_DOUBLE_SIDED) != 0u;
+        if (cos_light == 0.0 || (!double_sided && cos_light < 0.0)) {
+            return no_light_sample();
+        }
+        let pdf = pmf * dist2 / (na.w * abs(cos_light));
+        let q_off = offset_ray_origin(q, q_error, na.xyz, -wi);
+        return LightSample(wi, material.emission, pdf, false, spawn_ray_to(p, p_error, n_geometric, q_off), true);
+    }
+    if (FEATURE_POINT_LIGHTS && (light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT)) {
+        let to_light = light.position - p;
+        let dist2 = dot(to_light, to_light);
+        if (dist2 == 0.0) {
+            return no_light_sample();
+        }
+        let wi = to_light / sqrt(dist2);
+        var radiance = light.intensity / dist2;
+        if (FEATURE_SPOT_LIGHTS && light.kind == LIGHT_SPOT) {
+            radiance *= spot_falloff(light, -dot(wi, light.direction));
+        }
+        return LightSample(wi, radiance, pmf, true, spawn_ray_to(p, p_error, n_geometric, light.position), true);
+    }
+    if (FEATURE_DIRECTIONAL_LIGHTS && light.kind == LIGHT_DIRECTIONAL) {
+        let wi = -light.direction;
+        return LightSample(wi, light.intensity, pmf, true, spawn_ray(p, p_error, n_geometric, wi), true);
+    }
+    return no_light_sample();
+}
+
+fn triangle_light_pdf(light: Light, tri: Triangle, origin: vec3<f32>, hit_point: vec3<f32>) -> f32 {
+    let na = triangle_normal_area(tri);
+    let d = hit_point - origin;
+    let dist2 = dot(d, d);
+    if (dist2 == 0.0 || na.w == 0.0) {
+        return 0.0;
+    }
+    let cos_light = abs(dot(d / sqrt(dist2), na.xyz));
+    if (cos_light == 0.0) {
+        return 0.0;
+    }
+    return light.pmf * dist2 / (na.w * cos_light);
+}

@@ -1,0 +1,113 @@
+// Twin of src/sampling/ (rng.rs, warp.rs): the same integer arithmetic, so a sample with the
+// same pixel, index and seed draws the same numbers as on the CPU.
+
+const PI: f32 = 3.14159265358979323846;
+const INV_PI: f32 = 0.31830988618379067154;
+
+// pcg4d (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering", JCGT 9(3)).
+fn pcg4d(v_in: vec4<u32>) -> vec4<u32> {
+    var v = v_in * 1664525u + vec4<u32>(1013904223u);
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    v = v ^ (v >> vec4<u32>(16u));
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    return v;
+}
+
+// xoshiro128** state of this invocation's current sample (Blackman & Vigna 2021).
+var<private> rng_s: vec4<u32>;
+
+fn rng_seed(x: u32, y: u32, sample_index: u32, seed: u32) {
+    rng_s = pcg4d(vec4<u32>(x, y, sample_index, seed));
+    if (all(rng_s == vec4<u32>(0u))) {
+        rng_s.x = 1u;
+    }
+}
+
+fn rotl(x: u32, k: u32) -> u32 {
+    return (x << k) | (x >> (32u - k));
+}
+
+fn rng_next_u32() -> u32 {
+    let result = rotl(rng_s.y * 5u, 7u) * 9u;
+    let t = rng_s.y << 9u;
+    rng_s.z ^= rng_s.x;
+    rng_s.w ^= rng_s.y;
+    rng_s.y ^= rng_s.z;
+    rng_s.x ^= rng_s.w;
+    rng_s.z ^= t;
+    rng_s.w = rotl(rng_s.w, 11u);
+    return result;
+}
+
+// Uniform in [0, 1): the top 24 bits.
+fn rng_next_1d() -> f32 {
+    return f32(rng_next_u32() >> 8u) * (1.0 / 16777216.0);
+}
+
+fn rng_next_2d() -> vec2<f32> {
+    let x = rng_next_1d();
+    let y = rng_next_1d();
+    return vec2<f32>(x, y);
+}
+
+// Concentric square-to-disk map (Shirley & Chiu 1997).
+fn sample_uniform_disk_concentric(u: vec2<f32>) -> vec2<f32> {
+    let o = 2.0 * u - vec2<f32>(1.0);
+    if (o.x == 0.0 && o.y == 0.0) {
+        return vec2<f32>(0.0);
+    }
+    var r: f32;
+    var theta: f32;
+    if (abs(o.x) > abs(o.y)) {
+        r = o.x;
+        theta = (PI / 4.0) * (o.y / o.x);
+    } else {
+        r = o.y;
+        theta = PI / 2.0 - (PI / 4.0) * (o.x / o.y);
+    }
+    return r * vec2<f32>(cos(theta), sin(theta));
+}
+
+fn sample_cosine_hemisphere(u: vec2<f32>) -> vec3<f32> {
+    let d = sample_uniform_disk_concentric(u);
+    let z = sqrt(max(1.0 - d.x * d.x - d.y * d.y, 0.0));
+    return vec3<f32>(d.x, d.y, z);
+}
+
+fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    return max(cos_theta, 0.0) * INV_PI;
+}
+
+// Heitz's low-distortion square-to-triangle map; barycentrics (b0, b1, b2).
+fn sample_uniform_triangle(u: vec2<f32>) -> vec3<f32> {
+    var b0: f32;
+    var b1: f32;
+    if (u.x < u.y) {
+        b0 = u.x / 2.0;
+        b1 = u.y - b0;
+    } else {
+        b1 = u.y / 2.0;
+        b0 = u.x - b1;
+    }
+    return vec3<f32>(b0, b1, 1.0 - b0 - b1);
+}
+
+// Power heuristic, β = 2 (Veach 1997, §9.2.4), through the ratio of the smaller density to
+// the larger so nothing is squared past f32's range.
+fn power_heuristic(pdf_this: f32, pdf_other: f32) -> f32 {
+    if (pdf_this <= 0.0) {
+        return 0.0;
+    }
+    if (pdf_this >= pdf_other) {
+        let r = pdf_other / pdf_this;
+        return 1.0 / (1.0 + r * r);
+    }
+    let r = pdf_this / pdf_other;
+    return r * r / (1.0 + r * r);
+}

@@ -1,0 +1,252 @@
+//! Adapter discovery and the device, with the kernel cache.
+//!
+//! Only the Vulkan backend is used (`Backends::VULKAN`): it runs on real GPUs and on Mesa's
+//! lavapipe alike, and skipping GL saves a second adapter and a second of start-up.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use crate::error::{Error, Result};
+use crate::scene::SceneFeatures;
+
+use super::shader;
+
+/// The instance pathlight uses: Vulkan only; debug/validation flags follow the build and the
+/// `WGPU_DEBUG` / `WGPU_VALIDATION` environment variables.
+pub fn instance() -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = wgpu::Backends::VULKAN;
+    desc.flags = wgpu::InstanceFlags::from_build_config().with_env();
+    wgpu::Instance::new(desc)
+}
+
+/// Every Vulkan adapter on this machine.
+pub fn enumerate_adapters() -> Vec<wgpu::Adapter> {
+    pollster::block_on(instance().enumerate_adapters(wgpu::Backends::VULKAN))
+}
+
+/// A multi-line description of an adapter and the limits that matter to the renderer.
+pub fn describe_adapter(adapter: &wgpu::Adapter) -> String {
+    let info = adapter.get_info();
+    let l = adapter.limits();
+    let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+    format!(
+        "{} ({:?}, {:?})\n  driver: {} {}\n  max storage buffer binding: {:.0} MiB, max buffer: {:.0} MiB, storage buffers per stage: {}\n  max workgroup size: {}×{}×{} ({} invocations), workgroups per dimension: {}",
+        info.name,
+        info.device_type,
+        info.backend,
+        info.driver,
+        info.driver_info,
+        mib(l.max_storage_buffer_binding_size as u64),
+        mib(l.max_buffer_size),
+        l.max_storage_buffers_per_shader_stage,
+        l.max_compute_workgroup_size_x,
+        l.max_compute_workgroup_size_y,
+        l.max_compute_workgroup_size_z,
+        l.max_compute_invocations_per_workgroup,
+        l.max_compute_workgroups_per_dimension,
+    )
+}
+
+fn type_rank(t: wgpu::DeviceType) -> u32 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    }
+}
+
+/// The compiled kernels for one feature set.
+pub struct Kernel {
+    pub features: SceneFeatures,
+    pub render: wgpu::ComputePipeline,
+    pub first_hit: wgpu::ComputePipeline,
+    /// Wall time to build the `render` pipeline (override specialisation, SPIR-V generation
+    /// and the driver's compile).
+    pub build_seconds: f64,
+}
+
+/// A device ready to render, with its compiled kernels.
+pub struct GpuContext {
+    pub info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub bind_group_layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+    module: wgpu::ShaderModule,
+    /// Errors wgpu reported outside any error scope (kept, then returned by `check`).
+    uncaptured: Arc<Mutex<Vec<String>>>,
+    kernels: Mutex<HashMap<SceneFeatures, Arc<Kernel>>>,
+    /// Wall time to parse and validate the WGSL module.
+    pub module_seconds: f64,
+}
+
+impl GpuContext {
+    /// Opens the best Vulkan adapter, or the first whose name contains `device_filter`
+    /// (case-insensitive). Fails with a clear message when there is none.
+    pub fn new(device_filter: Option<&str>) -> Result<GpuContext> {
+        let mut adapters = enumerate_adapters();
+        if adapters.is_empty() {
+            return Err(Error::Gpu("no Vulkan adapter found".into()));
+        }
+        if let Some(filter) = device_filter {
+            let want = filter.to_lowercase();
+            let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+            adapters.retain(|a| a.get_info().name.to_lowercase().contains(&want));
+            if adapters.is_empty() {
+                return Err(Error::Gpu(format!(
+                    "no Vulkan adapter matches --device '{filter}'; available: {}",
+                    names.join(", ")
+                )));
+            }
+        }
+        adapters.sort_by_key(|a| type_rank(a.get_info().device_type));
+        let adapter = adapters.into_iter().next().expect("non-empty");
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("pathlight"),
+            required_features: wgpu::Features::empty(),
+            // Everything the adapter offers: scenes may need its largest storage bindings.
+            required_limits: limits.clone(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| Error::Gpu(format!("cannot open {}: {e}", info.name)))?;
+        let uncaptured = Arc::new(Mutex::new(Vec::new()));
+        {
+            let sink = uncaptured.clone();
+            device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+                sink.lock().unwrap_or_else(|p| p.into_inner()).push(e.to_string());
+            }));
+        }
+
+        let start = Instant::now();
+        let source = shader::kernel_source();
+        // naga validation first, for errors that name the shader file and line.
+        shader::parse_and_validate(&source)
+            .map_err(|e| Error::Gpu(format!("kernel does not compile: {e}")))?;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("pathlight megakernel"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("kernel rejected by wgpu: {e}")));
+        }
+        let module_seconds = start.elapsed().as_secs_f64();
+
+        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let uniform = |binding: u32| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        // Binding numbers as declared in shaders/bindings.wgsl.
+        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("pathlight bindings"),
+            entries: &[
+                storage(0, true),
+                storage(1, true),
+                storage(2, true),
+                storage(3, true),
+                storage(4, true),
+                uniform(5),
+                uniform(6),
+                storage(7, false),
+                storage(8, false),
+                storage(9, false),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("pathlight"),
+            bind_group_layouts: &[Some(&bind_group_layout)],
+            immediate_size: 0,
+        });
+        Ok(GpuContext {
+            info,
+            limits,
+            device,
+            queue,
+            bind_group_layout,
+            pipeline_layout,
+            module,
+            uncaptured,
+            kernels: Mutex::new(HashMap::new()),
+            module_seconds,
+        })
+    }
+
+    /// The kernels specialised to `features`, built on first use and cached.
+    pub fn kernel(&self, features: SceneFeatures) -> Result<Arc<Kernel>> {
+        let mut cache = self.kernels.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(k) = cache.get(&features) {
+            return Ok(k.clone());
+        }
+        let constants: Vec<(&str, f64)> = features
+            .pipeline_constants()
+            .iter()
+            .map(|(name, on)| (*name, if *on { 1.0 } else { 0.0 }))
+            .collect();
+        let build = |entry: &str| -> Result<(wgpu::ComputePipeline, f64)> {
+            let start = Instant::now();
+            let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+            let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&self.pipeline_layout),
+                module: &self.module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    zero_initialize_workgroup_memory: false,
+                },
+                cache: None,
+            });
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                return Err(Error::Gpu(format!("building the {entry} kernel failed: {e}")));
+            }
+            Ok((pipeline, start.elapsed().as_secs_f64()))
+        };
+        let (render, build_seconds) = build("render")?;
+        let (first_hit, _) = build("first_hit")?;
+        let kernel = Arc::new(Kernel { features, render, first_hit, build_seconds });
+        cache.insert(features, kernel.clone());
+        Ok(kernel)
+    }
+
+    /// Returns any error wgpu reported asynchronously since the last check.
+    pub fn check(&self) -> Result<()> {
+        let mut errors = self.uncaptured.lock().unwrap_or_else(|p| p.into_inner());
+        if errors.is_empty() {
+            Ok(())
+        } else {
+            let all = errors.join("; ");
+            errors.clear();
+            Err(Error::Gpu(all))
+        }
+    }
+
+    /// A human-readable name: adapter and driver.
+    pub fn name(&self) -> String {
+        format!("{} ({} {})", self.info.name, self.info.driver, self.info.driver_info)
+    }
+}

@@ -1,0 +1,306 @@
+//! The GPU backend: uploads a [`FlatScene`], accumulates samples in a GPU-resident film, and
+//! reads back only when output is wanted.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use wgpu::util::DeviceExt;
+
+use super::context::{GpuContext, Kernel};
+use super::layout::{FilmPixel, FirstHit, FrameParams, Light};
+use crate::error::{Error, Result};
+use crate::film::Film;
+use crate::render::{Backend, RenderSettings};
+use crate::scene::FlatScene;
+
+/// Each submit is sized to take about this long: long enough that per-submit overhead is
+/// small, short enough that no desktop watchdog (typically 2 s) kills a dispatch and a
+/// progress display stays live.
+const TARGET_SUBMIT_SECONDS: f64 = 0.1;
+/// Waiting longer than this for one submit means the GPU hung; report it rather than hang.
+const SUBMIT_TIMEOUT: Duration = Duration::from_secs(120);
+/// Compute workgroup edge (shaders/integrator.wgsl `@workgroup_size(8, 8, 1)`).
+const WORKGROUP: u32 = 8;
+
+pub struct GpuBackend {
+    ctx: Arc<GpuContext>,
+    kernel: Arc<Kernel>,
+    bind_group: wgpu::BindGroup,
+    params: wgpu::Buffer,
+    film: wgpu::Buffer,
+    first_hits: wgpu::Buffer,
+    ray_counts: wgpu::Buffer,
+    settings: RenderSettings,
+    light_count: u32,
+    /// Measured seconds per pixel-sample, steering submit sizes.
+    seconds_per_sample: Option<f64>,
+    /// Wall time of uploading the scene.
+    pub upload_seconds: f64,
+}
+
+impl GpuBackend {
+    /// Uploads `scene` and builds (or fetches from the cache) its specialised kernel.
+    pub fn new(ctx: Arc<GpuContext>, scene: &FlatScene, settings: &RenderSettings) -> Result<GpuBackend> {
+        Self::with_kernel(ctx.clone(), ctx.kernel(scene.features)?, scene, settings)
+    }
+
+    /// As [`Self::new`] but with an explicit kernel (e.g. the un-specialised one, to measure
+    /// what specialisation buys).
+    pub fn with_kernel(
+        ctx: Arc<GpuContext>,
+        kernel: Arc<Kernel>,
+        scene: &FlatScene,
+        settings: &RenderSettings,
+    ) -> Result<GpuBackend> {
+        let start = Instant::now();
+        let device = &ctx.device;
+        let max_binding = ctx.limits.max_storage_buffer_binding_size as u64;
+        let max_buffer = ctx.limits.max_buffer_size;
+        let check = |what: &str, bytes: u64| -> Result<()> {
+            let limit = max_binding.min(max_buffer);
+            if bytes > limit {
+                return Err(Error::Gpu(format!(
+                    "the {what} needs {:.1} MiB but {} allows {:.1} MiB per storage buffer; the scene does not fit on this device (try --backend cpu)",
+                    bytes as f64 / 1048576.0,
+                    ctx.info.name,
+                    limit as f64 / 1048576.0
+                )));
+            }
+            Ok(())
+        };
+        let storage = |what: &str, bytes: &[u8], usage: wgpu::BufferUsages| -> Result<wgpu::Buffer> {
+            check(what, bytes.len() as u64)?;
+            Ok(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(what),
+                contents: bytes,
+                usage,
+            }))
+        };
+        let read_only = wgpu::BufferUsages::STORAGE;
+        // A binding may not be empty; a scene without lights binds one unused record.
+        let lights: Vec<Light> =
+            if scene.lights.is_empty() { vec![Light::default()] } else { scene.lights.clone() };
+        let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let nodes = storage("BVH node buffer", bytemuck::cast_slice(&scene.nodes), read_only)?;
+        let triangles = storage("triangle buffer", bytemuck::cast_slice(&scene.triangles), read_only)?;
+        let normals = storage("normal buffer", bytemuck::cast_slice(&scene.normals), read_only)?;
+        let materials = storage("material buffer", bytemuck::cast_slice(&scene.materials), read_only)?;
+        let lights = storage("light buffer", bytemuck::cast_slice(&lights), read_only)?;
+        let pixels = settings.width as u64 * settings.height as u64;
+        let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let zeroed = |what: &str, bytes: u64| -> Result<wgpu::Buffer> {
+            check(what, bytes)?;
+            Ok(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(what),
+                size: bytes,
+                usage: rw,
+                mapped_at_creation: false,
+            }))
+        };
+        let film = zeroed("film", pixels * std::mem::size_of::<FilmPixel>() as u64)?;
+        let first_hits = zeroed("first-hit buffer", pixels * std::mem::size_of::<FirstHit>() as u64)?;
+        let ray_counts = zeroed("ray-count buffer", pixels * 4)?;
+        let camera = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("camera"),
+            contents: bytemuck::bytes_of(&scene.camera),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame params"),
+            size: std::mem::size_of::<FrameParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("out of GPU memory uploading the scene: {e}")));
+        }
+        let buffers = [
+            &nodes,
+            &triangles,
+            &normals,
+            &materials,
+            &lights,
+            &camera,
+            &params,
+            &film,
+            &first_hits,
+            &ray_counts,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pathlight scene"),
+            layout: &ctx.bind_group_layout,
+            entries: &entries,
+        });
+        ctx.check()?;
+        Ok(GpuBackend {
+            kernel,
+            bind_group,
+            params,
+            film,
+            first_hits,
+            ray_counts,
+            settings: settings.clone(),
+            light_count: scene.lights.len() as u32,
+            seconds_per_sample: None,
+            upload_seconds: start.elapsed().as_secs_f64(),
+            ctx,
+        })
+    }
+
+    /// Seconds it took to build this backend's kernel.
+    pub fn kernel_build_seconds(&self) -> f64 {
+        self.kernel.build_seconds
+    }
+
+    fn frame_params(&self, sample_offset: u32, samples: u32, row_offset: u32, row_count: u32) -> FrameParams {
+        FrameParams {
+            width: self.settings.width,
+            height: self.settings.height,
+            sample_offset,
+            samples,
+            seed: self.settings.seed,
+            max_depth: self.settings.max_depth.unwrap_or(u32::MAX),
+            rr_min_depth: self.settings.rr_min_depth,
+            light_count: self.light_count,
+            row_offset,
+            row_count,
+            _pad0: 0,
+            _pad1: 0,
+        }
+    }
+
+    /// One dispatch of `pipeline` over rows `[row_offset, row_offset + row_count)`, submitted
+    /// and waited for. Returns its wall time.
+    fn dispatch(&self, pipeline: &wgpu::ComputePipeline, params: FrameParams) -> Result<f64> {
+        let start = Instant::now();
+        self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("pathlight") });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("path tracing"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups(
+                params.width.div_ceil(WORKGROUP),
+                params.row_count.div_ceil(WORKGROUP),
+                1,
+            );
+        }
+        let index = self.ctx.queue.submit([encoder.finish()]);
+        self.wait(index)?;
+        Ok(start.elapsed().as_secs_f64())
+    }
+
+    fn wait(&self, index: wgpu::SubmissionIndex) -> Result<()> {
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: Some(SUBMIT_TIMEOUT) })
+            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
+        self.ctx.check()
+    }
+
+    /// Copies a GPU buffer back to the host.
+    fn read_back<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer) -> Result<Vec<T>> {
+        let size = buffer.size();
+        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        let index = self.ctx.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait(index)?;
+        rx.recv_timeout(SUBMIT_TIMEOUT)
+            .map_err(|_| Error::Gpu("reading back from the GPU timed out".into()))?
+            .map_err(|e| Error::Gpu(format!("reading back from the GPU failed: {e}")))?;
+        let data = staging
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|e| Error::Gpu(format!("cannot map the readback buffer: {e}")))?;
+        let out = bytemuck::cast_slice::<u8, T>(&data).to_vec();
+        drop(data);
+        staging.unmap();
+        Ok(out)
+    }
+
+    /// What the camera ray of sample 0 of every pixel hits.
+    pub fn first_hits(&mut self) -> Result<Vec<FirstHit>> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        self.dispatch(&self.kernel.first_hit, self.frame_params(0, 1, 0, h))?;
+        let hits = self.read_back::<FirstHit>(&self.first_hits)?;
+        Ok(hits[..(w * h) as usize].to_vec())
+    }
+}
+
+impl Backend for GpuBackend {
+    fn name(&self) -> String {
+        format!("gpu ({})", self.ctx.name())
+    }
+
+    /// Adds samples in submits of about [`TARGET_SUBMIT_SECONDS`]: several samples per pixel
+    /// per dispatch on a fast device, bands of rows on a slow one. The first submit probes
+    /// with a small band. Each sample's random stream depends only on (pixel, sample index,
+    /// seed), so the image does not depend on how the work was split.
+    fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let mut done = 0u32;
+        while done < samples {
+            let remaining = samples - done;
+            let (spp, rows) = match self.seconds_per_sample {
+                None => (1, h.min(WORKGROUP)),
+                Some(rate) => {
+                    let full_image = rate * w as f64 * h as f64;
+                    if full_image <= TARGET_SUBMIT_SECONDS {
+                        (((TARGET_SUBMIT_SECONDS / full_image) as u32).clamp(1, remaining), h)
+                    } else {
+                        let rows = (TARGET_SUBMIT_SECONDS / (rate * w as f64)) as u32;
+                        (1, rows.clamp(1, h))
+                    }
+                }
+            };
+            let mut row = 0;
+            while row < h {
+                let count = rows.min(h - row);
+                let params = self.frame_params(sample_offset + done, spp, row, count);
+                let seconds = self.dispatch(&self.kernel.render, params)?;
+                let rate = seconds / (w as f64 * count as f64 * spp as f64);
+                // Smooth, but let a first measurement stand alone.
+                self.seconds_per_sample = Some(match self.seconds_per_sample {
+                    Some(old) => 0.5 * old + 0.5 * rate,
+                    None => rate,
+                });
+                row += count;
+            }
+            done += spp;
+        }
+        Ok(())
+    }
+
+    fn film(&mut self) -> Result<Film> {
+        let pixels = self.read_back::<FilmPixel>(&self.film)?;
+        Ok(Film { width: self.settings.width, height: self.settings.height, pixels })
+    }
+
+    fn rays_traced(&mut self) -> Result<u64> {
+        Ok(self.read_back::<u32>(&self.ray_counts)?.iter().map(|&c| c as u64).sum())
+    }
+}

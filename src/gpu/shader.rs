@@ -1,0 +1,145 @@
+//! The megakernel's WGSL: one file per concept under `shaders/`, composed in one declared
+//! order (each file may use what the files before it declare). Errors are reported against
+//! the file and line they come from.
+
+/// The kernel's source files, in dependency order.
+pub const SHADER_FILES: &[(&str, &str)] = &[
+    ("layout.wgsl", include_str!("../../shaders/layout.wgsl")),
+    ("features.wgsl", include_str!("../../shaders/features.wgsl")),
+    ("bindings.wgsl", include_str!("../../shaders/bindings.wgsl")),
+    ("sampling.wgsl", include_str!("../../shaders/sampling.wgsl")),
+    ("geometry.wgsl", include_str!("../../shaders/geometry.wgsl")),
+    ("bvh.wgsl", include_str!("../../shaders/bvh.wgsl")),
+    ("bsdf.wgsl", include_str!("../../shaders/bsdf.wgsl")),
+    ("light.wgsl", include_str!("../../shaders/light.wgsl")),
+    ("camera.wgsl", include_str!("../../shaders/camera.wgsl")),
+    ("film.wgsl", include_str!("../../shaders/film.wgsl")),
+    ("integrator.wgsl", include_str!("../../shaders/integrator.wgsl")),
+];
+
+/// The composed source of the first `count` files.
+pub fn compose(count: usize) -> String {
+    let mut out = String::new();
+    for (name, text) in &SHADER_FILES[..count] {
+        out.push_str(&format!("// ---- shaders/{name}\n"));
+        out.push_str(text);
+        if !text.ends_with('\n') {
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// The whole kernel.
+pub fn kernel_source() -> String {
+    compose(SHADER_FILES.len())
+}
+
+/// Maps a 1-based line of the composed source back to `shaders/<file>:<line>`.
+pub fn locate(line: u32) -> String {
+    let mut start = 1u32;
+    for (name, text) in SHADER_FILES {
+        let lines = text.lines().count() as u32 + 1; // + the header line
+        if line < start + lines {
+            return format!("shaders/{name}:{}", line - start);
+        }
+        start += lines;
+    }
+    format!("composed kernel line {line}")
+}
+
+/// Parses and validates WGSL with naga, as wgpu will; errors name the shader file and line.
+pub fn parse_and_validate(source: &str) -> Result<naga::Module, String> {
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| {
+        let at = e.location(source).map(|l| locate(l.line_number)).unwrap_or_default();
+        format!("{at}: {}", e.emit_to_string(source))
+    })?;
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
+        .validate(&module)
+        .map_err(|e| {
+            let at = e.location(source).map(|l| locate(l.line_number)).unwrap_or_default();
+            format!("{at}: {}", e.emit_to_string(source))
+        })?;
+    Ok(module)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout;
+
+    #[test]
+    fn every_wgsl_file_validates_with_its_dependencies() {
+        for i in 1..=SHADER_FILES.len() {
+            if let Err(e) = parse_and_validate(&compose(i)) {
+                panic!("{} does not validate: {e}", SHADER_FILES[i - 1].0);
+            }
+        }
+    }
+
+    #[test]
+    fn locate_maps_lines_to_files() {
+        assert_eq!(locate(2), "shaders/layout.wgsl:1");
+        let layout_lines = SHADER_FILES[0].1.lines().count() as u32;
+        assert_eq!(locate(layout_lines + 3), "shaders/features.wgsl:1");
+    }
+
+    /// Every struct in `src/gpu/layout.rs` exists in WGSL with the same size and the same
+    /// field offsets, and every shared constant has the same value.
+    #[test]
+    fn layout_matches_wgsl() {
+        let module = parse_and_validate(&kernel_source()).unwrap();
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        for (name, size, fields) in layout::all_layouts() {
+            let (handle, ty) = module
+                .types
+                .iter()
+                .find(|(_, t)| t.name.as_deref() == Some(name))
+                .unwrap_or_else(|| panic!("struct {name} is missing from shaders/layout.wgsl"));
+            let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+                panic!("{name} is not a struct in WGSL")
+            };
+            assert_eq!(layouter[handle].size as usize, size, "{name}: WGSL size vs Rust size_of");
+            assert_eq!(members.len(), fields.len(), "{name}: field count differs");
+            for (member, (field, offset)) in members.iter().zip(&fields) {
+                assert_eq!(member.name.as_deref(), Some(*field), "{name}: field order differs");
+                assert_eq!(member.offset as usize, *offset, "{name}.{field}: WGSL offset vs Rust offset_of");
+            }
+        }
+        let constant = |name: &str| -> f64 {
+            let (_, c) = module
+                .constants
+                .iter()
+                .find(|(_, c)| c.name.as_deref() == Some(name))
+                .unwrap_or_else(|| panic!("constant {name} is missing from the WGSL"));
+            match module.global_expressions[c.init] {
+                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
+                naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
+                naga::Expression::Literal(naga::Literal::I32(v)) => v as f64,
+                ref other => panic!("{name}: unexpected initializer {other:?}"),
+            }
+        };
+        let shared: &[(&str, f64)] = &[
+            ("INVALID_INDEX", layout::INVALID_INDEX as f64),
+            ("TRIANGLE_HAS_NORMALS", layout::TRIANGLE_HAS_NORMALS as f64),
+            ("MATERIAL_DOUBLE_SIDED", layout::MATERIAL_DOUBLE_SIDED as f64),
+            ("MATERIAL_VOLUME", layout::MATERIAL_VOLUME as f64),
+            ("LIGHT_TRIANGLE", layout::LIGHT_TRIANGLE as f64),
+            ("LIGHT_POINT", layout::LIGHT_POINT as f64),
+            ("LIGHT_SPOT", layout::LIGHT_SPOT as f64),
+            ("LIGHT_DIRECTIONAL", layout::LIGHT_DIRECTIONAL as f64),
+            ("PROJECTION_PERSPECTIVE", layout::PROJECTION_PERSPECTIVE as f64),
+            ("PROJECTION_ORTHOGRAPHIC", layout::PROJECTION_ORTHOGRAPHIC as f64),
+            ("TRAVERSAL_STACK_SIZE", crate::bvh::TRAVERSAL_STACK_SIZE as f64),
+            ("MAX_BOUNCES_GUARD", crate::cpu::MAX_BOUNCES_GUARD as f64),
+            ("RR_MAX_SURVIVAL", crate::cpu::RR_MAX_SURVIVAL as f64),
+            ("LOBE_SELECTION_FLOOR", crate::bsdf::LOBE_SELECTION_FLOOR as f64),
+            ("MIN_ALPHA", crate::bsdf::MIN_ALPHA as f64),
+            ("SHADOW_EPSILON", crate::geometry::SHADOW_EPSILON as f64),
+        ];
+        for (name, value) in shared {
+            assert_eq!(constant(name), *value, "constant {name}: WGSL vs Rust");
+        }
+    }
+}
