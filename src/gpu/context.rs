@@ -38,7 +38,7 @@ pub fn describe_adapter(adapter: &wgpu::Adapter) -> String {
         info.backend,
         info.driver,
         info.driver_info,
-        mib(l.max_storage_buffer_binding_size as u64),
+        mib(l.max_storage_buffer_binding_size),
         mib(l.max_buffer_size),
         l.max_storage_buffers_per_shader_stage,
         l.max_compute_workgroup_size_x,

@@ -54,7 +54,7 @@ impl GpuBackend {
     ) -> Result<GpuBackend> {
         let start = Instant::now();
         let device = &ctx.device;
-        let max_binding = ctx.limits.max_storage_buffer_binding_size as u64;
+        let max_binding = ctx.limits.max_storage_buffer_binding_size;
         let max_buffer = ctx.limits.max_buffer_size;
         let check = |what: &str, bytes: u64| -> Result<()> {
             let limit = max_binding.min(max_buffer);
