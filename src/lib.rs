@@ -10,6 +10,7 @@
 //!                                                       └─▶ gpu::GpuBackend ─┴─▶ Film ─▶ EXR/PNG
 //! ```
 
+pub mod bench;
 pub mod bsdf;
 pub mod bvh;
 pub mod cpu;

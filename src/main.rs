@@ -30,6 +30,38 @@ enum Command {
     Render(RenderArgs),
     /// List the Vulkan adapters with their driver, type and the limits that matter.
     Info,
+    /// Measure scene preparation and render throughput; prints markdown tables.
+    Bench(BenchArgs),
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// Scenes: names in scenes/ (e.g. cornell-box), paths, or `bunny-in-cornell` (the
+    /// Stanford bunny from the shared assets in the Cornell box).
+    #[arg(default_values_t = ["cornell-box".to_string(), "bunny-in-cornell".to_string()])]
+    scenes: Vec<String>,
+    #[arg(long, default_value_t = 512)]
+    width: u32,
+    #[arg(long, default_value_t = 512)]
+    height: u32,
+    /// Timed samples per pixel (after one warm-up sample).
+    #[arg(long, default_value_t = 8)]
+    spp: u32,
+    /// Skip the CPU backend.
+    #[arg(long)]
+    no_cpu: bool,
+    /// Skip the GPU backend.
+    #[arg(long)]
+    no_gpu: bool,
+    /// Only load and build the BVH (for very large meshes).
+    #[arg(long)]
+    prep_only: bool,
+    /// GPU adapter name substring.
+    #[arg(long)]
+    device: Option<String>,
+    /// The shared assets folder.
+    #[arg(long, default_value = "../shared/assets")]
+    assets: PathBuf,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -89,6 +121,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => run_render(args),
         Command::Info => run_info(),
+        Command::Bench(args) => run_bench(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -97,6 +130,61 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn run_bench(args: BenchArgs) -> Result<(), Error> {
+    use pathlight::bench::{bench_scene, load_bench_scene, machine_description, prepare};
+    let root = std::env::current_dir().map_err(|e| Error::io(Path::new("."), e))?;
+    let gpu = if args.no_gpu || args.prep_only {
+        None
+    } else {
+        Some(Arc::new(GpuContext::new(args.device.as_deref())?))
+    };
+    println!("Machine: {}", machine_description());
+    if let Some(g) = &gpu {
+        println!("GPU: {}", g.name());
+    }
+    println!(
+        "Settings: {}×{}, {} timed spp after 1 warm-up spp, seed 0, unlimited depth\n",
+        args.width, args.height, args.spp
+    );
+    println!("| scene | triangles | load s | BVH build s | BVH nodes | SAH cost | features |");
+    println!("|---|---:|---:|---:|---:|---:|---|");
+    let mut flats = Vec::new();
+    for name in &args.scenes {
+        let start = std::time::Instant::now();
+        let scene = load_bench_scene(name, &root, &args.assets)?;
+        let load = start.elapsed().as_secs_f64();
+        let (flat, p) = prepare(name, &scene, args.width as f64 / args.height as f64, load)?;
+        println!(
+            "| {} | {} | {:.3} | {:.3} | {} | {:.2} | {} |",
+            p.scene, p.triangles, p.load_seconds, p.bvh_seconds, p.bvh_nodes, p.sah_cost, p.features
+        );
+        flats.push((name.clone(), flat));
+    }
+    if args.prep_only {
+        return Ok(());
+    }
+    println!("\n| scene | backend | kernel | kernel build s | spp | seconds | Msamples/s | Mrays/s |");
+    println!("|---|---|---|---:|---:|---:|---:|---:|");
+    let settings =
+        RenderSettings { width: args.width, height: args.height, spp: args.spp, ..RenderSettings::default() };
+    for (name, flat) in &flats {
+        for r in bench_scene(name, flat, &settings, gpu.as_ref(), !args.no_cpu)? {
+            println!(
+                "| {} | {} | {} | {} | {} | {:.2} | {:.3} | {:.2} |",
+                r.scene,
+                r.backend,
+                r.kernel,
+                r.kernel_build_seconds.map(|s| format!("{s:.3}")).unwrap_or_else(|| "-".into()),
+                r.spp,
+                r.seconds,
+                r.samples_per_second / 1e6,
+                r.rays_per_second / 1e6
+            );
+        }
+    }
+    Ok(())
 }
 
 fn run_info() -> Result<(), Error> {

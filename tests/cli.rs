@@ -126,3 +126,56 @@ fn bad_input_gets_a_clear_error() {
     assert!(e.contains("/nonexistent-dir/x.exr"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn gpu_is_the_default_backend_and_falls_back_without_vulkan() {
+    let dir = temp_dir("gpu");
+    let exr = dir.join("g.exr");
+    let scene = common::scene("cornell-box.gltf");
+    // Default backend: the GPU (lavapipe in CI).
+    let out = pathlight()
+        .args(["render", scene.to_str().unwrap(), "--spp", "2", "--width", "16", "-o"])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if common::gpu().is_some() {
+        assert!(out.status.success(), "{stderr}");
+        assert!(stderr.contains("backend gpu") && stderr.contains("kernel specialised to"), "{stderr}");
+        let image = pathlight::film::read_exr(&exr).unwrap();
+        assert!(image.attributes["pathlight.backend"].starts_with("gpu"));
+    }
+    // No Vulkan driver visible: fall back to the CPU and say so.
+    let out = pathlight()
+        .args(["render", scene.to_str().unwrap(), "--spp", "2", "--width", "16", "-o"])
+        .arg(&exr)
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("no Vulkan adapter found; falling back to the CPU backend"), "{stderr}");
+    assert!(stderr.contains("backend cpu"), "{stderr}");
+    // Asking for a device that is not there is an error, not a silent fallback.
+    let out = pathlight()
+        .args(["render", scene.to_str().unwrap(), "--device", "no-such-gpu", "-o"])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("no-such-gpu") || stderr.contains("no Vulkan adapter"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn info_lists_adapters() {
+    let out = pathlight().arg("info").output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    assert!(stdout.contains("CPU reference"), "{stdout}");
+    if common::gpu().is_some() {
+        assert!(stdout.contains("driver:") && stdout.contains("max storage buffer binding"), "{stdout}");
+    }
+}

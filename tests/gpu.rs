@@ -303,3 +303,16 @@ fn missing_gpu_fails_in_ci_and_skips_loudly_elsewhere() {
     assert!(local.status.success(), "without CI a missing GPU skips: {text}");
     assert!(text.contains("SKIPPED: no usable GPU"), "the skip must be loud: {text}");
 }
+
+#[test]
+fn a_film_too_large_for_the_device_is_a_clear_error() {
+    let Some(ctx) = common::gpu() else { return };
+    let scene = common::flat_scene(&common::scene("cornell-box.gltf"), 1, 1);
+    // 4096² pixels × 32 bytes = 512 MiB of film; lavapipe binds at most 128 MiB. On a device
+    // whose binding limit is larger, use a size past that limit instead.
+    let max = ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size);
+    let side = (((max / 32) as f64).sqrt() as u32 + 64).max(4096);
+    let err =
+        GpuBackend::new(ctx.clone(), &scene, &settings(side, 1, 0)).map(|_| ()).unwrap_err().to_string();
+    assert!(err.contains("film") && err.contains("does not fit"), "{err}");
+}

@@ -122,7 +122,7 @@ pub fn radiance(
     let mut prev_delta = true;
     let mut prev_pdf = 0.0f32;
     loop {
-        *rays += 1;
+        *rays = rays.wrapping_add(1);
         let Some(hit) = intersect_closest(&scene.nodes, &scene.triangles, &ray) else { break };
         let si = surface_interaction(scene, &ray, &hit);
         let material = &scene.materials[si.material as usize];
@@ -163,7 +163,7 @@ pub fn radiance(
                 let wi = si.frame.to_local(ls.wi);
                 let f = bsdf.eval(si.wo, wi);
                 let unoccluded = f.max_element() > 0.0 && {
-                    *rays += 1;
+                    *rays = rays.wrapping_add(1);
                     !intersect_any(&scene.nodes, &scene.triangles, &ls.shadow_ray)
                 };
                 if unoccluded {

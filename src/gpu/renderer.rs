@@ -17,6 +17,8 @@ use crate::scene::FlatScene;
 /// small, short enough that no desktop watchdog (typically 2 s) kills a dispatch and a
 /// progress display stays live.
 const TARGET_SUBMIT_SECONDS: f64 = 0.1;
+/// Submits queued at once: one running while the next waits, so completions overlap work.
+const MAX_IN_FLIGHT: usize = 2;
 /// Waiting longer than this for one submit means the GPU hung; report it rather than hang.
 const SUBMIT_TIMEOUT: Duration = Duration::from_secs(120);
 /// Compute workgroup edge (shaders/integrator.wgsl `@workgroup_size(8, 8, 1)`).
@@ -54,6 +56,13 @@ impl GpuBackend {
     ) -> Result<GpuBackend> {
         let start = Instant::now();
         let device = &ctx.device;
+        let max_groups = ctx.limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
+        if settings.width as u64 > max_groups || settings.height as u64 > max_groups {
+            return Err(Error::Gpu(format!(
+                "{}×{} exceeds {}'s dispatch size ({} pixels per side)",
+                settings.width, settings.height, ctx.info.name, max_groups
+            )));
+        }
         let max_binding = ctx.limits.max_storage_buffer_binding_size;
         let max_buffer = ctx.limits.max_buffer_size;
         let check = |what: &str, bytes: u64| -> Result<()> {
@@ -174,10 +183,10 @@ impl GpuBackend {
         }
     }
 
-    /// One dispatch of `pipeline` over rows `[row_offset, row_offset + row_count)`, submitted
-    /// and waited for. Returns its wall time.
-    fn dispatch(&self, pipeline: &wgpu::ComputePipeline, params: FrameParams) -> Result<f64> {
-        let start = Instant::now();
+    /// Encodes and submits one dispatch of `pipeline` over rows `[row_offset, row_offset +
+    /// row_count)` without waiting. `queue.write_buffer` is ordered on the queue timeline, so
+    /// one parameter buffer serves any number of submits in flight.
+    fn submit(&self, pipeline: &wgpu::ComputePipeline, params: FrameParams) -> wgpu::SubmissionIndex {
         self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
         let mut encoder = self
             .ctx
@@ -196,9 +205,13 @@ impl GpuBackend {
                 1,
             );
         }
-        let index = self.ctx.queue.submit([encoder.finish()]);
-        self.wait(index)?;
-        Ok(start.elapsed().as_secs_f64())
+        self.ctx.queue.submit([encoder.finish()])
+    }
+
+    /// Submits one dispatch and waits for it.
+    fn dispatch(&self, pipeline: &wgpu::ComputePipeline, params: FrameParams) -> Result<()> {
+        let index = self.submit(pipeline, params);
+        self.wait(index)
     }
 
     fn wait(&self, index: wgpu::SubmissionIndex) -> Result<()> {
@@ -257,15 +270,22 @@ impl Backend for GpuBackend {
     }
 
     /// Adds samples in submits of about [`TARGET_SUBMIT_SECONDS`]: several samples per pixel
-    /// per dispatch on a fast device, bands of rows on a slow one. The first submit probes
-    /// with a small band. Each sample's random stream depends only on (pixel, sample index,
-    /// seed), so the image does not depend on how the work was split.
+    /// per dispatch on a fast device, bands of rows on a slow one. Up to [`MAX_IN_FLIGHT`]
+    /// submits are queued so the device never idles while the host waits for a completion
+    /// (on lavapipe each wake-up costs tens of milliseconds). Each sample's random stream
+    /// depends only on (pixel, sample index, seed), so the image does not depend on how the
+    /// work was split.
     fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
         let (w, h) = (self.settings.width, self.settings.height);
+        // (submission, pixel-samples of work, time submitted)
+        let mut in_flight: std::collections::VecDeque<(wgpu::SubmissionIndex, f64, Instant)> =
+            Default::default();
+        let mut last_done: Option<Instant> = None;
         let mut done = 0u32;
         while done < samples {
             let remaining = samples - done;
             let (spp, rows) = match self.seconds_per_sample {
+                // Probe with a small band until a first measurement exists.
                 None => (1, h.min(WORKGROUP)),
                 Some(rate) => {
                     let full_image = rate * w as f64 * h as f64;
@@ -281,16 +301,32 @@ impl Backend for GpuBackend {
             while row < h {
                 let count = rows.min(h - row);
                 let params = self.frame_params(sample_offset + done, spp, row, count);
-                let seconds = self.dispatch(&self.kernel.render, params)?;
-                let rate = seconds / (w as f64 * count as f64 * spp as f64);
-                // Smooth, but let a first measurement stand alone.
-                self.seconds_per_sample = Some(match self.seconds_per_sample {
-                    Some(old) => 0.5 * old + 0.5 * rate,
-                    None => rate,
-                });
+                let index = self.submit(&self.kernel.render, params);
+                in_flight.push_back((index, w as f64 * count as f64 * spp as f64, Instant::now()));
+                let limit = if self.seconds_per_sample.is_none() { 1 } else { MAX_IN_FLIGHT };
+                while in_flight.len() >= limit {
+                    let (index, work, submitted) = in_flight.pop_front().expect("non-empty");
+                    self.wait(index)?;
+                    let now = Instant::now();
+                    // The device ran this submit from when it was submitted or when the one
+                    // before it finished, whichever was later.
+                    let began = match last_done {
+                        Some(t) if t > submitted => t,
+                        _ => submitted,
+                    };
+                    let rate = now.duration_since(began).as_secs_f64() / work;
+                    self.seconds_per_sample = Some(match self.seconds_per_sample {
+                        Some(old) => 0.5 * old + 0.5 * rate,
+                        None => rate,
+                    });
+                    last_done = Some(now);
+                }
                 row += count;
             }
             done += spp;
+        }
+        while let Some((index, _, _)) = in_flight.pop_front() {
+            self.wait(index)?;
         }
         Ok(())
     }

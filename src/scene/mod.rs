@@ -48,6 +48,36 @@ impl Scene {
         Some(self.positions.iter().fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
     }
 
+    /// Appends every triangle of `other`, transformed by `transform` (f64), with its
+    /// materials; `material` overrides them all when given. Lights and cameras of `other`
+    /// are not taken. Used to compose benchmark scenes (a scanned mesh in a lit room).
+    pub fn append(&mut self, other: &Scene, transform: glam::DMat4, material: Option<MaterialDesc>) {
+        let base = self.materials.len() as u32;
+        match material {
+            Some(m) => self.materials.push(m),
+            None => self.materials.extend(other.materials.iter().cloned()),
+        }
+        let normal_matrix = glam::DMat3::from_mat4(transform).inverse().transpose();
+        let flip = glam::DMat3::from_mat4(transform).determinant() < 0.0;
+        for (i, tri) in other.positions.chunks_exact(3).enumerate() {
+            let mut p = [tri[0], tri[1], tri[2]].map(|v| transform.transform_point3(v));
+            let mut n =
+                other.normals[i].map(|ns| ns.map(|v| (normal_matrix * v.as_dvec3()).normalize().as_vec3()));
+            if flip {
+                p.swap(1, 2);
+                if let Some(ns) = n.as_mut() {
+                    ns.swap(1, 2);
+                }
+            }
+            let m = if self.materials.len() as u32 == base + 1 {
+                base
+            } else {
+                base + other.triangle_materials[i]
+            };
+            self.push_triangle(p, n, m);
+        }
+    }
+
     /// Adds a triangle (used by scene generators and tests).
     pub fn push_triangle(&mut self, p: [DVec3; 3], normals: Option<[Vec3; 3]>, material: u32) {
         self.positions.extend_from_slice(&p);

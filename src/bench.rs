@@ -1,0 +1,154 @@
+//! Throughput benchmarks: scene preparation, BVH build, kernel build, and samples/s and
+//! rays/s per backend (`pathlight bench`). Speed is measured here, never asserted in tests.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::{DMat4, DQuat, DVec3, Vec3};
+
+use crate::cpu::CpuBackend;
+use crate::error::Result;
+use crate::gpu::{GpuBackend, GpuContext};
+use crate::scene::{FlatScene, MaterialDesc, Scene, SceneFeatures, ViewSettings};
+use crate::{Backend, RenderSettings};
+
+/// One measured configuration.
+#[derive(Clone, Debug)]
+pub struct BenchRow {
+    pub scene: String,
+    pub triangles: usize,
+    pub backend: String,
+    /// Which kernel (GPU): the scene's specialised one or the general one.
+    pub kernel: String,
+    pub kernel_build_seconds: Option<f64>,
+    pub spp: u32,
+    pub seconds: f64,
+    pub samples_per_second: f64,
+    pub rays_per_second: f64,
+}
+
+/// Scene-preparation figures.
+#[derive(Clone, Debug)]
+pub struct PrepRow {
+    pub scene: String,
+    pub triangles: usize,
+    pub load_seconds: f64,
+    pub bvh_seconds: f64,
+    pub bvh_nodes: usize,
+    pub sah_cost: f64,
+    pub features: String,
+}
+
+/// Loads a scene; `bunny-in-cornell` composes the Stanford bunny (from `assets`) into the
+/// Cornell box with a white Lambertian material, since the scan has no material or light.
+pub fn load_bench_scene(name: &str, root: &Path, assets: &Path) -> Result<Scene> {
+    if name == "bunny-in-cornell" {
+        let (mut room, _) = crate::scene::load(&root.join("scenes/cornell-box.gltf"))?;
+        let (bunny, _) = crate::scene::load(&assets.join("bvh/stanford-bunny.glb"))?;
+        // The scan is ~0.155 units tall with its base at y = 0.033; scale it to 0.39 m,
+        // stand it on the floor in the middle of the room facing the camera.
+        let s = 2.5;
+        let transform = DMat4::from_translation(DVec3::new(0.28, -0.033 * s, 0.28))
+            * DMat4::from_quat(DQuat::from_rotation_y(std::f64::consts::PI))
+            * DMat4::from_scale(DVec3::splat(s));
+        let white = MaterialDesc {
+            name: "bunny (white Lambertian)".into(),
+            base_color: Vec3::splat(0.75),
+            metallic: 0.0,
+            roughness: 1.0,
+            specular_factor: 0.0,
+            ..MaterialDesc::default()
+        };
+        room.append(&bunny, transform, Some(white));
+        return Ok(room);
+    }
+    let path = if Path::new(name).exists() {
+        PathBuf::from(name)
+    } else {
+        root.join("scenes").join(format!("{name}.gltf"))
+    };
+    Ok(crate::scene::load(&path)?.0)
+}
+
+pub fn prepare(name: &str, scene: &Scene, aspect: f64, load_seconds: f64) -> Result<(FlatScene, PrepRow)> {
+    let flat = FlatScene::build(scene, &ViewSettings { camera: None, aspect })?;
+    let row = PrepRow {
+        scene: name.into(),
+        triangles: flat.triangles.len(),
+        load_seconds,
+        bvh_seconds: flat.bvh_stats.build_seconds,
+        bvh_nodes: flat.bvh_stats.nodes,
+        sah_cost: flat.bvh_stats.sah_cost,
+        features: flat.features.describe(),
+    };
+    Ok((flat, row))
+}
+
+/// Renders `spp` samples per pixel after a one-sample warm-up (GPU: the first dispatches
+/// probe the submit size) and measures the timed part only: (seconds, samples, rays).
+fn measure(backend: &mut dyn Backend, spp: u32, pixels: u64) -> Result<(f64, u64, u64)> {
+    backend.render(0, 1)?;
+    let rays_before = backend.rays_traced()?;
+    let start = Instant::now();
+    backend.render(1, spp)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let rays = backend.rays_traced()? - rays_before;
+    Ok((seconds, pixels * spp as u64, rays))
+}
+
+/// Measures `flat` on the CPU and, if `gpu` is given, with its specialised kernel and with
+/// the general (all-features) kernel.
+pub fn bench_scene(
+    name: &str,
+    flat: &FlatScene,
+    settings: &RenderSettings,
+    gpu: Option<&Arc<GpuContext>>,
+    cpu: bool,
+) -> Result<Vec<BenchRow>> {
+    let mut rows = Vec::new();
+    let spp = settings.spp;
+    let pixels = settings.width as u64 * settings.height as u64;
+    let mut push =
+        |backend: String, kernel: &str, build: Option<f64>, (seconds, samples, rays): (f64, u64, u64)| {
+            rows.push(BenchRow {
+                scene: name.into(),
+                triangles: flat.triangles.len(),
+                backend,
+                kernel: kernel.into(),
+                kernel_build_seconds: build,
+                spp,
+                seconds,
+                samples_per_second: samples as f64 / seconds,
+                rays_per_second: rays as f64 / seconds,
+            })
+        };
+    if cpu {
+        let mut b = CpuBackend::new(flat, settings);
+        let m = measure(&mut b, spp, pixels)?;
+        push(b.name(), "-", None, m);
+    }
+    if let Some(ctx) = gpu {
+        for (label, features) in [("specialised", flat.features), ("general", SceneFeatures::ALL)] {
+            let kernel = ctx.kernel(features)?;
+            let build = kernel.build_seconds;
+            let mut b = GpuBackend::with_kernel(ctx.clone(), kernel, flat, settings)?;
+            let m = measure(&mut b, spp, pixels)?;
+            push(ctx.name(), &format!("{label} [{}]", features.describe()), Some(build), m);
+        }
+    }
+    Ok(rows)
+}
+
+/// A short description of this machine for results files.
+pub fn machine_description() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    format!("{cpu}, {} threads for the CPU backend", rayon::current_num_threads())
+}
