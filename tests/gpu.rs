@@ -147,16 +147,36 @@ fn same_seed_agrees(file: &str) {
     );
 }
 
+/// Every bundled scene; `every_bundled_scene_is_compared` keeps this list honest.
+const SCENES: &[&str] = &[
+    "cornell-box.gltf",
+    "furnace-0.5.gltf",
+    "furnace-0.9.gltf",
+    "glossy-metal.gltf",
+    "glass-smooth.gltf",
+    "glass-rough.gltf",
+    "punctual.gltf",
+];
+
+#[test]
+fn every_bundled_scene_is_compared() {
+    let mut on_disk: Vec<String> = std::fs::read_dir(common::root().join("scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".gltf") || n.ends_with(".glb"))
+        .collect();
+    on_disk.sort();
+    let mut listed: Vec<String> = SCENES.iter().map(|s| s.to_string()).collect();
+    listed.sort();
+    assert_eq!(
+        on_disk, listed,
+        "tests/gpu.rs SCENES must list every scene in scenes/ (and each needs a *_gpu_matches_cpu test)"
+    );
+}
+
 #[test]
 fn same_seed_renders_agree_to_rounding() {
-    for file in [
-        "cornell-box.gltf",
-        "furnace-0.5.gltf",
-        "glossy-metal.gltf",
-        "glass-smooth.gltf",
-        "glass-rough.gltf",
-        "punctual.gltf",
-    ] {
+    for file in SCENES {
         same_seed_agrees(file);
     }
 }
@@ -169,6 +189,11 @@ fn cornell_box_gpu_matches_cpu() {
 #[test]
 fn furnace_gpu_matches_cpu() {
     gpu_matches_cpu("furnace-0.5.gltf", 24, 64);
+}
+
+#[test]
+fn furnace_0_9_gpu_matches_cpu() {
+    gpu_matches_cpu("furnace-0.9.gltf", 24, 64);
 }
 
 #[test]

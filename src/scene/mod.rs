@@ -53,6 +53,7 @@ impl Scene {
     /// are not taken. Used to compose benchmark scenes (a scanned mesh in a lit room).
     pub fn append(&mut self, other: &Scene, transform: glam::DMat4, material: Option<MaterialDesc>) {
         let base = self.materials.len() as u32;
+        let overridden = material.is_some();
         match material {
             Some(m) => self.materials.push(m),
             None => self.materials.extend(other.materials.iter().cloned()),
@@ -69,11 +70,7 @@ impl Scene {
                     ns.swap(1, 2);
                 }
             }
-            let m = if self.materials.len() as u32 == base + 1 {
-                base
-            } else {
-                base + other.triangle_materials[i]
-            };
+            let m = if overridden { base } else { base + other.triangle_materials[i] };
             self.push_triangle(p, n, m);
         }
     }
