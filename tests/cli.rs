@@ -16,29 +16,33 @@ fn temp_dir(name: &str) -> std::path::PathBuf {
     d
 }
 
+/// Renders the Cornell box on the CPU, 8 spp, 64 px wide, seed 5, to each output.
+fn render_cornell_cpu(outputs: &[&std::path::Path]) -> std::process::Output {
+    let scene = common::scene("cornell-box.gltf");
+    let mut c = pathlight();
+    c.args([
+        "render",
+        scene.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--spp",
+        "8",
+        "--width",
+        "64",
+        "--seed",
+        "5",
+    ]);
+    for o in outputs {
+        c.arg("-o").arg(o);
+    }
+    c.output().unwrap()
+}
+
 #[test]
 fn renders_cornell_box_to_exr_and_png() {
     let dir = temp_dir("cornell");
     let (exr, png) = (dir.join("c.exr"), dir.join("c.png"));
-    let out = pathlight()
-        .args([
-            "render",
-            common::scene("cornell-box.gltf").to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "--spp",
-            "8",
-            "--width",
-            "64",
-            "--seed",
-            "5",
-        ])
-        .arg("-o")
-        .arg(&exr)
-        .arg("-o")
-        .arg(&png)
-        .output()
-        .unwrap();
+    let out = render_cornell_cpu(&[&exr, &png]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "render failed: {stderr}");
     assert!(stderr.contains("8 spp at 64×64"), "summary line missing: {stderr}");
@@ -68,23 +72,7 @@ fn renders_cornell_box_to_exr_and_png() {
 
     // Same seed, same image: the CPU reference is deterministic.
     let exr2 = dir.join("c2.exr");
-    let out = pathlight()
-        .args([
-            "render",
-            common::scene("cornell-box.gltf").to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "--spp",
-            "8",
-            "--width",
-            "64",
-            "--seed",
-            "5",
-            "-o",
-        ])
-        .arg(&exr2)
-        .output()
-        .unwrap();
+    let out = render_cornell_cpu(&[&exr2]);
     assert!(out.status.success());
     assert_eq!(pathlight::film::read_exr(&exr2).unwrap().channels["R"], image.channels["R"]);
     let _ = std::fs::remove_dir_all(&dir);
