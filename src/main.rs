@@ -117,6 +117,12 @@ struct RenderArgs {
 }
 
 fn main() -> ExitCode {
+    // Mesa's Vulkan drivers print "XDG_RUNTIME_DIR is invalid or not set" on every start
+    // when it is unset (headless servers, CI); pathlight uses no display, so point it at the
+    // temporary directory. Done first, while the process is single-threaded.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => run_render(args),
