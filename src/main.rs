@@ -263,6 +263,7 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         max_depth: args.max_depth,
         ..RenderSettings::default()
     };
+    settings.validate()?;
     let mut backend: Box<dyn Backend + '_> = match args.backend {
         BackendChoice::Cpu => Box::new(pathlight::cpu::CpuBackend::new(&flat, &settings)),
         BackendChoice::Gpu => match GpuContext::new(args.device.as_deref()) {

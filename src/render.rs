@@ -27,6 +27,31 @@ impl Default for RenderSettings {
     }
 }
 
+/// The most pixels an image may have: 2²⁸ (e.g. 16384²), a film of 8 GiB. Beyond that a
+/// mistyped size would exhaust memory instead of failing clearly.
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+impl RenderSettings {
+    /// Checks the settings are renderable, with a message naming the one that is not.
+    pub fn validate(&self) -> Result<()> {
+        if self.width == 0 || self.height == 0 {
+            return Err(crate::Error::Settings("--width and --height must be at least 1".into()));
+        }
+        if self.width as u64 * self.height as u64 > MAX_PIXELS {
+            return Err(crate::Error::Settings(format!(
+                "{}×{} is {} pixels; at most {MAX_PIXELS} are supported",
+                self.width,
+                self.height,
+                self.width as u64 * self.height as u64
+            )));
+        }
+        if self.spp == 0 {
+            return Err(crate::Error::Settings("--spp must be at least 1".into()));
+        }
+        Ok(())
+    }
+}
+
 /// A renderer that adds samples to its own film.
 pub trait Backend {
     /// Human-readable name (recorded in outputs).

@@ -97,6 +97,19 @@ fn bad_input_gets_a_clear_error() {
     let cornell = common::scene("cornell-box.gltf");
     let e = run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "--camera", "3", "-o", out]);
     assert!(e.contains("--camera 3") && e.contains("1 camera"), "{e}");
+    let e = run(&[
+        "render",
+        cornell.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--width",
+        "100000",
+        "--height",
+        "100000",
+        "-o",
+        out,
+    ]);
+    assert!(e.contains("100000×100000") && e.contains("at most"), "{e}");
     let e = run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "-o", "image.jpg"]);
     assert!(e.contains("image.jpg") && e.contains(".exr or .png"), "{e}");
     let e = run(&[
