@@ -108,6 +108,9 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
             break;
         }
         beta *= bs.weight;
+        if (!is_finite_vec3(beta)) {
+            return poison();
+        }
         prev_delta = bs.is_delta;
         prev_pdf = bs.pdf_solid_angle;
         depth += 1u;
@@ -116,13 +119,10 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
 
         if (depth >= frame.rr_min_depth) {
             let q = min(max_element(beta), RR_MAX_SURVIVAL);
-            if (!(q > 0.0) || rng_next_1d() >= q) {
+            if (q <= 0.0 || rng_next_1d() >= q) {
                 break;
             }
             beta /= q;
-        }
-        if (!is_finite_vec3(beta)) {
-            return poison();
         }
     }
     return l;

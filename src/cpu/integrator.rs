@@ -183,6 +183,11 @@ pub fn radiance(
         let u_dir = rng.next_2d();
         let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { break };
         beta *= bs.weight;
+        if !beta.is_finite() {
+            // Poison the sample so the film counts and rejects it. Checked here, before
+            // roulette, so roulette only ever sees a finite throughput.
+            return Vec3::splat(f32::NAN);
+        }
         prev_delta = bs.is_delta;
         prev_pdf = bs.pdf_solid_angle;
         depth += 1;
@@ -192,14 +197,10 @@ pub fn radiance(
         // Russian roulette (unbiased: survivors are divided by the survival probability).
         if depth >= settings.rr_min_depth {
             let q = beta.max_element().min(RR_MAX_SURVIVAL);
-            if q.is_nan() || q <= 0.0 || rng.next_1d() >= q {
+            if q <= 0.0 || rng.next_1d() >= q {
                 break;
             }
             beta /= q;
-        }
-        if !beta.is_finite() {
-            // Poison the sample so the film counts and rejects it.
-            return Vec3::splat(f32::NAN);
         }
     }
     l
