@@ -17,7 +17,6 @@ use crate::{Backend, RenderSettings};
 #[derive(Clone, Debug)]
 pub struct BenchRow {
     pub scene: String,
-    pub triangles: usize,
     pub backend: String,
     /// Which kernel (GPU): the scene's specialised one or the general one.
     pub kernel: String,
@@ -113,7 +112,6 @@ pub fn bench_scene(
         |backend: String, kernel: &str, build: Option<f64>, (seconds, samples, rays): (f64, u64, u64)| {
             rows.push(BenchRow {
                 scene: name.into(),
-                triangles: flat.triangles.len(),
                 backend,
                 kernel: kernel.into(),
                 kernel_build_seconds: build,

@@ -59,9 +59,8 @@ fn type_rank(t: wgpu::DeviceType) -> u32 {
     }
 }
 
-/// The compiled kernels for one feature set.
+/// The compiled kernels for one feature set (the key they are cached under).
 pub struct Kernel {
-    pub features: SceneFeatures,
     pub render: wgpu::ComputePipeline,
     pub first_hit: wgpu::ComputePipeline,
     /// Wall time to build the `render` pipeline (override specialisation, SPIR-V generation
@@ -81,8 +80,6 @@ pub struct GpuContext {
     /// Errors wgpu reported outside any error scope (kept, then returned by `check`).
     uncaptured: Arc<Mutex<Vec<String>>>,
     kernels: Mutex<HashMap<SceneFeatures, Arc<Kernel>>>,
-    /// Wall time to parse and validate the WGSL module.
-    pub module_seconds: f64,
 }
 
 impl GpuContext {
@@ -126,20 +123,18 @@ impl GpuContext {
             }));
         }
 
-        let start = Instant::now();
         let source = shader::kernel_source();
-        // naga validation first, for errors that name the shader file and line.
-        shader::parse_and_validate(&source)
-            .map_err(|e| Error::Gpu(format!("kernel does not compile: {e}")))?;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("pathlight megakernel"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
+            source: wgpu::ShaderSource::Wgsl(source.as_str().into()),
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Gpu(format!("kernel rejected by wgpu: {e}")));
+            // wgpu parsed the composed source; naga again only to name the shader file and
+            // line of the problem.
+            let at = shader::parse_and_validate(&source).err().unwrap_or_default();
+            return Err(Error::Gpu(format!("kernel rejected by wgpu: {e} {at}")));
         }
-        let module_seconds = start.elapsed().as_secs_f64();
 
         let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
             binding,
@@ -192,7 +187,6 @@ impl GpuContext {
             module,
             uncaptured,
             kernels: Mutex::new(HashMap::new()),
-            module_seconds,
         })
     }
 
@@ -228,7 +222,7 @@ impl GpuContext {
         };
         let (render, build_seconds) = build("render")?;
         let (first_hit, _) = build("first_hit")?;
-        let kernel = Arc::new(Kernel { features, render, first_hit, build_seconds });
+        let kernel = Arc::new(Kernel { render, first_hit, build_seconds });
         cache.insert(features, kernel.clone());
         Ok(kernel)
     }

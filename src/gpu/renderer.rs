@@ -257,10 +257,8 @@ impl GpuBackend {
 
     /// What the camera ray of sample 0 of every pixel hits.
     pub fn first_hits(&mut self) -> Result<Vec<FirstHit>> {
-        let (w, h) = (self.settings.width, self.settings.height);
-        self.dispatch(&self.kernel.first_hit, self.frame_params(0, 1, 0, h))?;
-        let hits = self.read_back::<FirstHit>(&self.first_hits)?;
-        Ok(hits[..(w * h) as usize].to_vec())
+        self.dispatch(&self.kernel.first_hit, self.frame_params(0, 1, 0, self.settings.height))?;
+        self.read_back(&self.first_hits)
     }
 }
 
