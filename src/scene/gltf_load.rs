@@ -13,7 +13,7 @@ use super::accessor::{load_buffers, read_indices, read_vec3};
 use super::camera::{CameraDesc, Projection};
 use super::light::{PunctualKind, PunctualLight};
 use super::material::{AlphaMode, MaterialDesc, TextureSlot};
-use super::Scene;
+use super::{MeshTransform, Scene};
 use crate::error::{Error, Result};
 
 /// Extensions whose meaning pathlight implements.
@@ -169,7 +169,7 @@ fn load_unchecked(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)> {
             add_mesh(&mut scene, &mut stats, &buffers, &mesh, &world, default_material, file)?;
         }
         if let Some(camera) = node.camera() {
-            let (_, rotation, translation) = decompose(&world);
+            let (rotation, translation) = decompose(&world);
             let projection = match camera.projection() {
                 gltf::camera::Projection::Perspective(p) => Projection::Perspective {
                     yfov: p.yfov() as f64,
@@ -199,7 +199,7 @@ fn load_unchecked(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)> {
             }
         }
         if let Some(light) = node.light() {
-            let (_, rotation, translation) = decompose(&world);
+            let (rotation, translation) = decompose(&world);
             let color = Vec3::from(light.color());
             let intensity = color * light.intensity();
             if !intensity.is_finite() || intensity.min_element() < 0.0 {
@@ -299,15 +299,15 @@ fn node_transform(root: &serde_json::Value, index: usize) -> std::result::Result
     Ok(DMat4::from_scale_rotation_translation(DVec3::from(s), q, DVec3::from(t)))
 }
 
-/// Splits an affine matrix into (linear part, rotation with scale removed, translation).
-fn decompose(m: &DMat4) -> (DMat3, DMat3, DVec3) {
+/// Splits an affine matrix into (rotation with scale removed, translation).
+fn decompose(m: &DMat4) -> (DMat3, DVec3) {
     let linear = DMat3::from_mat4(*m);
     let rotation = DMat3::from_cols(
         linear.x_axis.try_normalize().unwrap_or(DVec3::X),
         linear.y_axis.try_normalize().unwrap_or(DVec3::Y),
         linear.z_axis.try_normalize().unwrap_or(DVec3::Z),
     );
-    (linear, rotation, m.w_axis.truncate())
+    (rotation, m.w_axis.truncate())
 }
 
 fn add_mesh(
@@ -319,10 +319,7 @@ fn add_mesh(
     default_material: u32,
     file: &Path,
 ) -> Result<()> {
-    let linear = DMat3::from_mat4(*world);
-    let flip_winding = linear.determinant() < 0.0;
-    // Normals transform by the inverse transpose (pbrt-v4 §3.10.3).
-    let normal_matrix = linear.inverse().transpose();
+    let transform = MeshTransform::new(*world);
     for primitive in mesh.primitives() {
         let what = format!(
             "mesh {}{} primitive {}",
@@ -382,18 +379,13 @@ fn add_mesh(
 
         let world_positions: Vec<DVec3> = positions
             .iter()
-            .map(|p| world.transform_point3(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)))
+            .map(|p| transform.point(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)))
             .collect();
         let world_normals: Option<Vec<Option<Vec3>>> = normals.as_ref().map(|ns| {
-            ns.iter()
-                .map(|n| {
-                    let w = normal_matrix * DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
-                    w.try_normalize().map(|w| w.as_vec3())
-                })
-                .collect()
+            ns.iter().map(|n| transform.normal(DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64))).collect()
         });
         for [a, b, c] in triangles {
-            let (a, b, c) = if flip_winding { (a, c, b) } else { (a, b, c) };
+            let (a, b, c) = if transform.flips_winding { (a, c, b) } else { (a, b, c) };
             let p = [world_positions[a as usize], world_positions[b as usize], world_positions[c as usize]];
             if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() == 0.0 {
                 stats.degenerate += 1;

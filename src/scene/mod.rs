@@ -21,6 +21,36 @@ pub use light::{PunctualKind, PunctualLight};
 pub use material::{AlphaMode, MaterialDesc, TextureSlot};
 pub use normals::{oct_decode, oct_encode};
 
+/// A node's world transform as it applies to a mesh: points by the affine matrix, normals by
+/// the inverse transpose of its linear part (pbrt-v4 §3.10.3), and the winding flipped when
+/// the determinant is negative so front faces stay front faces (glTF 2.0 §3.7.4).
+#[derive(Clone, Copy, Debug)]
+pub struct MeshTransform {
+    world: glam::DMat4,
+    normal_matrix: glam::DMat3,
+    pub flips_winding: bool,
+}
+
+impl MeshTransform {
+    pub fn new(world: glam::DMat4) -> MeshTransform {
+        let linear = glam::DMat3::from_mat4(world);
+        MeshTransform {
+            world,
+            normal_matrix: linear.inverse().transpose(),
+            flips_winding: linear.determinant() < 0.0,
+        }
+    }
+
+    pub fn point(&self, p: DVec3) -> DVec3 {
+        self.world.transform_point3(p)
+    }
+
+    /// The unit world-space normal, or `None` if it is zero or not finite.
+    pub fn normal(&self, n: DVec3) -> Option<Vec3> {
+        (self.normal_matrix * n).try_normalize().map(|w| w.as_vec3())
+    }
+}
+
 /// A loaded scene in world space, geometry in f64.
 #[derive(Clone, Debug, Default)]
 pub struct Scene {
@@ -58,13 +88,13 @@ impl Scene {
             Some(m) => self.materials.push(m),
             None => self.materials.extend(other.materials.iter().cloned()),
         }
-        let normal_matrix = glam::DMat3::from_mat4(transform).inverse().transpose();
-        let flip = glam::DMat3::from_mat4(transform).determinant() < 0.0;
+        let t = MeshTransform::new(transform);
         for (i, tri) in other.positions.chunks_exact(3).enumerate() {
-            let mut p = [tri[0], tri[1], tri[2]].map(|v| transform.transform_point3(v));
-            let mut n =
-                other.normals[i].map(|ns| ns.map(|v| (normal_matrix * v.as_dvec3()).normalize().as_vec3()));
-            if flip {
+            let mut p = [tri[0], tri[1], tri[2]].map(|v| t.point(v));
+            let mut n = other.normals[i].and_then(|[a, b, c]| {
+                Some([t.normal(a.as_dvec3())?, t.normal(b.as_dvec3())?, t.normal(c.as_dvec3())?])
+            });
+            if t.flips_winding {
                 p.swap(1, 2);
                 if let Some(ns) = n.as_mut() {
                     ns.swap(1, 2);
