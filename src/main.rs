@@ -228,12 +228,6 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     for o in &args.output {
         check_output(o)?;
     }
-    if args.spp == 0 {
-        return Err(Error::Settings("--spp must be at least 1".into()));
-    }
-    if args.width == Some(0) || args.height == Some(0) {
-        return Err(Error::Settings("--width and --height must be at least 1".into()));
-    }
     let (scene, warnings) = pathlight::scene::load(&args.scene)?;
     for w in &warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
@@ -243,6 +237,15 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         None => scene.cameras.first().and_then(|c| c.aspect_ratio()),
     };
     let (width, height) = image_size(args.width, args.height, camera_aspect);
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: args.spp,
+        seed: args.seed,
+        max_depth: args.max_depth,
+        ..RenderSettings::default()
+    };
+    settings.validate()?;
     let view = ViewSettings { camera: args.camera, aspect: width as f64 / height as f64 };
     let flat = FlatScene::build(&scene, &view)?;
     eprintln!(
@@ -255,15 +258,6 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         flat.bvh_stats.sah_cost,
         flat.features.describe()
     );
-    let settings = RenderSettings {
-        width,
-        height,
-        spp: args.spp,
-        seed: args.seed,
-        max_depth: args.max_depth,
-        ..RenderSettings::default()
-    };
-    settings.validate()?;
     let mut backend: Box<dyn Backend + '_> = match args.backend {
         BackendChoice::Cpu => Box::new(pathlight::cpu::CpuBackend::new(&flat, &settings)),
         BackendChoice::Gpu => match GpuContext::new(args.device.as_deref()) {
