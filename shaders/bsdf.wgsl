@@ -303,9 +303,7 @@ fn gltf_bsdf_new(m: Material, cos_theta_o: f32, front_face: bool) -> GltfBsdf {
     let w_d = lobe_weight(diffuse_present, dielectric * (1.0 - b.transmission) * (1.0 - f) * color);
     let w_t = lobe_weight(transmit_present, dielectric * b.transmission * (1.0 - f) * color);
     let total = w_r + w_d + w_t;
-    b.p_reflect = 0.0;
-    b.p_diffuse = 0.0;
-    b.p_transmit = 0.0;
+    // `b` is zero-initialised: with no lobe present every probability stays 0.
     if (total > 0.0) {
         b.p_reflect = w_r / total;
         b.p_diffuse = w_d / total;

@@ -128,15 +128,24 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
     return l;
 }
 
-// One invocation per pixel of rows [row_offset, row_offset + row_count): adds `samples`
-// samples, starting at index `sample_offset`, to the pixel's running statistics.
+// The pixel (x, y) of invocation `gid` within this dispatch's band of rows
+// [row_offset, row_offset + row_count); z = 0 when it lies outside the band or the image.
+fn band_pixel(gid: vec3<u32>) -> vec3<u32> {
+    let y = gid.y + frame.row_offset;
+    let inside = gid.x < frame.width && gid.y < frame.row_count && y < frame.height;
+    return vec3<u32>(gid.x, y, select(0u, 1u, inside));
+}
+
+// One invocation per pixel of the band: adds `samples` samples, starting at index
+// `sample_offset`, to the pixel's running statistics.
 @compute @workgroup_size(8, 8, 1)
 fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let x = gid.x;
-    let y = gid.y + frame.row_offset;
-    if (x >= frame.width || gid.y >= frame.row_count || y >= frame.height) {
+    let px = band_pixel(gid);
+    if (px.z == 0u) {
         return;
     }
+    let x = px.x;
+    let y = px.y;
     let pixel = y * frame.width + x;
     var p = film[pixel];
     rays_traced = 0u;
@@ -152,11 +161,12 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
 // What the camera ray of sample 0 hits: the first-hit AOV (distance, normal, albedo).
 @compute @workgroup_size(8, 8, 1)
 fn first_hit(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let x = gid.x;
-    let y = gid.y + frame.row_offset;
-    if (x >= frame.width || gid.y >= frame.row_count || y >= frame.height) {
+    let px = band_pixel(gid);
+    if (px.z == 0u) {
         return;
     }
+    let x = px.x;
+    let y = px.y;
     rng_seed(x, y, 0u, frame.seed);
     let ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
     let hit = intersect_closest(ray);
