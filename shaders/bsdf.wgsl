@@ -436,7 +436,7 @@ fn gltf_bsdf_sample(b: GltfBsdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> Bs
         wi = s.xyz;
     }
     let pdf = gltf_bsdf_pdf(b, wo, wi);
-    if (!(pdf > 0.0)) {
+    if (!is_finite_f32(pdf) || pdf <= 0.0) {
         return no_bsdf_sample();
     }
     let f = gltf_bsdf_eval(b, wo, wi);

@@ -43,7 +43,7 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_sele
     }
     let light = lights[choose_light(u_select)];
     let pmf = light.pmf;
-    if (!(pmf > 0.0)) {
+    if (pmf <= 0.0) {
         return no_light_sample();
     }
     if (FEATURE_EMISSIVE_TRIANGLES && light.kind == LIGHT_TRIANGLE) {

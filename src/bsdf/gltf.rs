@@ -259,7 +259,9 @@ impl GltfBsdf {
             }
         };
         let pdf = self.pdf(wo, wi);
-        if pdf.is_nan() || pdf <= 0.0 {
+        // A density that is not finite and positive is a numerical failure: end the path
+        // (the WGSL twin decides the same on the bits).
+        if !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
         let f = self.eval(wo, wi);

@@ -81,7 +81,8 @@ pub fn sample_light(
     let index = choose_light(arrays.lights, u_select);
     let light = &arrays.lights[index];
     let pmf = light.pmf;
-    if pmf.is_nan() || pmf <= 0.0 {
+    // Built by the host from finite powers: never NaN.
+    if pmf <= 0.0 {
         return None;
     }
     match light.kind {
