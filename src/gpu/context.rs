@@ -146,17 +146,8 @@ impl GpuContext {
             },
             count: None,
         };
-        let uniform = |binding: u32| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        // Binding numbers as declared in shaders/bindings.wgsl.
+        // Binding numbers as declared in shaders/bindings.wgsl. No uniform buffers: lavapipe
+        // recompiles the kernel for every re-bound uniform (see that file).
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("pathlight bindings"),
             entries: &[
@@ -165,8 +156,8 @@ impl GpuContext {
                 storage(2, true),
                 storage(3, true),
                 storage(4, true),
-                uniform(5),
-                uniform(6),
+                storage(5, true),
+                storage(6, true),
                 storage(7, false),
                 storage(8, false),
                 storage(9, false),
