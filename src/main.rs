@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use pathlight::film::{write_exr, write_png, RenderMetadata, Tonemap};
 use pathlight::gpu::{describe_adapter, enumerate_adapters, GpuBackend, GpuContext};
-use pathlight::scene::{FlatScene, ViewSettings};
+use pathlight::scene::{FlatScene, LoadOptions, ViewSettings};
 use pathlight::{Backend, Error, RenderSettings};
 
 #[derive(Parser)]
@@ -114,6 +114,10 @@ struct RenderArgs {
     /// PNG tone curve.
     #[arg(long, value_enum, default_value_t = TonemapChoice::Clamp)]
     tonemap: TonemapChoice,
+    /// Let the scene's external files (buffers, images) be anywhere, not only inside its
+    /// folder. Only for scenes you trust: see "Untrusted input" in the README.
+    #[arg(long)]
+    allow_any_path: bool,
 }
 
 fn main() -> ExitCode {
@@ -228,7 +232,8 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     for o in &args.output {
         check_output(o)?;
     }
-    let (scene, warnings) = pathlight::scene::load(&args.scene)?;
+    let options = LoadOptions { allow_any_path: args.allow_any_path };
+    let (scene, warnings) = pathlight::scene::load_with(&args.scene, &options)?;
     for w in &warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
     }

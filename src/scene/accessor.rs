@@ -3,18 +3,24 @@
 
 use std::path::Path;
 
-use base64::Engine;
 use gltf::accessor::{DataType, Dimensions};
 
+use super::uri::{read_uri, LoadOptions};
 use crate::error::{Error, Result};
 
 /// An accessor with no buffer view is all zeros (plus sparse values); beyond this many
 /// elements such a file is rejected rather than allocated.
 const MAX_VIEWLESS_ELEMENTS: usize = 1 << 28;
 
-/// Loads every buffer: the GLB binary chunk, `data:` URIs, or files beside the glTF.
-pub fn load_buffers(doc: &gltf::Document, blob: Option<&[u8]>, file: &Path) -> Result<Vec<Vec<u8>>> {
-    let base = file.parent().unwrap_or(Path::new("."));
+/// Loads every buffer: the GLB binary chunk, `data:` URIs, or files beside the glTF, under
+/// the external-URI rule of [`super::uri`].
+pub fn load_buffers(
+    doc: &gltf::Document,
+    blob: Option<&[u8]>,
+    file: &Path,
+    options: &LoadOptions,
+) -> Result<Vec<Vec<u8>>> {
+    let folder = scene_folder(file);
     let mut out = Vec::new();
     for buffer in doc.buffers() {
         let i = buffer.index();
@@ -28,25 +34,7 @@ pub fn load_buffers(doc: &gltf::Document, blob: Option<&[u8]>, file: &Path) -> R
                 })?
                 .to_vec(),
             gltf::buffer::Source::Uri(uri) => {
-                if let Some(rest) = uri.strip_prefix("data:") {
-                    let (header, payload) = rest.split_once(',').ok_or_else(|| {
-                        Error::scene(file, format!("buffer {i}: malformed data URI (no ',')"))
-                    })?;
-                    if !header.ends_with(";base64") {
-                        return Err(Error::scene(
-                            file,
-                            format!("buffer {i}: only base64 data URIs are supported"),
-                        ));
-                    }
-                    base64::engine::general_purpose::STANDARD.decode(payload.trim()).map_err(|e| {
-                        Error::scene(file, format!("buffer {i}: invalid base64 data URI: {e}"))
-                    })?
-                } else {
-                    let path = base.join(percent_decode(uri));
-                    std::fs::read(&path).map_err(|e| {
-                        Error::scene(file, format!("buffer {i}: cannot read '{}': {e}", path.display()))
-                    })?
-                }
+                read_uri(uri, folder, options).map_err(|m| Error::scene(file, format!("buffer {i}: {m}")))?
             }
         };
         if data.len() < buffer.length() {
@@ -60,27 +48,12 @@ pub fn load_buffers(doc: &gltf::Document, blob: Option<&[u8]>, file: &Path) -> R
     Ok(out)
 }
 
-/// Decodes `%XX` escapes in a relative URI (byte-wise, so no escape can split a UTF-8
-/// character and panic).
-fn percent_decode(uri: &str) -> String {
-    fn hex(b: u8) -> Option<u8> {
-        (b as char).to_digit(16).map(|d| d as u8)
+/// The folder a scene's relative URIs start from.
+pub fn scene_folder(file: &Path) -> &Path {
+    match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
     }
-    let bytes = uri.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        if bytes[i] == b'%' && i + 2 < bytes.len() {
-            if let (Some(hi), Some(lo)) = (hex(bytes[i + 1]), hex(bytes[i + 2])) {
-                out.push(hi * 16 + lo);
-                i += 3;
-                continue;
-            }
-        }
-        out.push(bytes[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
 }
 
 fn component_size(t: DataType) -> usize {
@@ -218,7 +191,9 @@ fn read_raw(
         for k in 0..n {
             let target = read_uint(index_type, indices.element(k)) as usize;
             if target >= count {
-                return Err(format!("{what}: sparse index {target} is out of range (count {count})"));
+                // The position, not the value: buffer contents are never quoted (they may be
+                // any file's bytes).
+                return Err(format!("{what}: sparse index {k} is out of range (count {count})"));
             }
             out[target * elem_size..(target + 1) * elem_size].copy_from_slice(values.element(k));
         }
@@ -264,18 +239,4 @@ pub fn read_indices(
     let size = component_size(t);
     let raw = read_raw(buffers, accessor, &format!("{what} (accessor {})", accessor.index()))?;
     Ok(raw.chunks_exact(size).map(|c| read_uint(t, c)).collect())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::percent_decode;
-
-    #[test]
-    fn percent_decoding() {
-        assert_eq!(percent_decode("a%20b.bin"), "a b.bin");
-        assert_eq!(percent_decode("plain.bin"), "plain.bin");
-        assert_eq!(percent_decode("bad%2"), "bad%2");
-        assert_eq!(percent_decode("%"), "%");
-        assert_eq!(percent_decode("%é%"), "%é%");
-    }
 }

@@ -9,10 +9,11 @@ use std::path::Path;
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
 use gltf::json::validation::Validate;
 
-use super::accessor::{load_buffers, read_indices, read_vec3};
+use super::accessor::{load_buffers, read_indices, read_vec3, scene_folder};
 use super::camera::{CameraDesc, Projection};
 use super::light::{PunctualKind, PunctualLight};
 use super::material::{AlphaMode, MaterialDesc, TextureSlot};
+use super::uri::{resolve_uri, LoadOptions};
 use super::{MeshTransform, Scene};
 use crate::error::{Error, Result};
 
@@ -26,19 +27,26 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
 ];
 
-/// Loads a glTF scene. Warnings (ignored optional extensions, features not yet rendered,
-/// dropped primitives) are returned beside it for the caller to show.
+/// Loads a glTF scene under the rule for untrusted input (external URIs stay inside the
+/// scene's folder; see [`super::uri`]). Warnings (ignored optional extensions, features not
+/// yet rendered, dropped primitives) are returned beside it for the caller to show.
 pub fn load(file: &Path) -> Result<(Scene, Vec<String>)> {
-    let bytes = std::fs::read(file).map_err(|e| Error::io(file, e))?;
-    load_from_bytes(&bytes, file)
+    load_with(file, &LoadOptions::default())
 }
 
-/// Loads a glTF scene from bytes; `file` names it in errors and resolves relative URIs.
+/// [`load`] with explicit options (e.g. [`LoadOptions::allow_any_path`] for trusted scenes).
+pub fn load_with(file: &Path, options: &LoadOptions) -> Result<(Scene, Vec<String>)> {
+    let bytes = std::fs::read(file).map_err(|e| Error::io(file, e))?;
+    load_from_bytes(&bytes, file, options)
+}
+
+/// Loads a glTF scene from bytes; `file` names it in errors and its folder is where relative
+/// URIs resolve.
 ///
 /// Malformed input is an error, never a crash: besides our own checks, a panic inside a
 /// third-party parser on a hostile file is caught and reported as an error naming the file.
-pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)> {
-    match std::panic::catch_unwind(|| load_unchecked(bytes, file)) {
+pub fn load_from_bytes(bytes: &[u8], file: &Path, options: &LoadOptions) -> Result<(Scene, Vec<String>)> {
+    match std::panic::catch_unwind(|| load_unchecked(bytes, file, options)) {
         Ok(result) => result,
         Err(panic) => {
             let what = panic
@@ -51,7 +59,7 @@ pub fn load_from_bytes(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)
     }
 }
 
-fn load_unchecked(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)> {
+fn load_unchecked(bytes: &[u8], file: &Path, options: &LoadOptions) -> Result<(Scene, Vec<String>)> {
     let err = |m: String| Error::scene(file, m);
     let gltf = gltf::Gltf::from_slice_without_validation(bytes)
         .map_err(|e| err(format!("not a valid glTF file: {e}")))?;
@@ -116,8 +124,16 @@ fn load_unchecked(bytes: &[u8], file: &Path) -> Result<(Scene, Vec<String>)> {
     }
 
     let raw_json = raw_json_value(bytes).map_err(|e| err(format!("cannot re-read the JSON: {e}")))?;
-    let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), file)?;
+    let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), file, options)?;
     let doc = &gltf.document;
+    // Images are not decoded yet (textures come later), but a scene whose image URIs break
+    // the external-URI rule is refused now, as it will be then.
+    for image in doc.images() {
+        if let gltf::image::Source::Uri { uri, .. } = image.source() {
+            resolve_uri(uri, scene_folder(file), options)
+                .map_err(|m| err(format!("image {}: {m}", image.index())))?;
+        }
+    }
 
     let mut scene = Scene { source: file.to_path_buf(), ..Scene::default() };
     scene.materials = doc.materials().map(|m| read_material(&m, file)).collect::<Result<_>>()?;
@@ -363,9 +379,11 @@ fn add_mesh(
         let indices: Vec<u32> = match primitive.indices() {
             Some(acc) => {
                 let idx = read_indices(buffers, &acc, &format!("{what}: indices")).map_err(err)?;
-                if let Some(bad) = idx.iter().find(|&&i| i as usize >= positions.len()) {
+                if let Some(bad) = idx.iter().position(|&i| i as usize >= positions.len()) {
+                    // The position, not the value: buffer contents are never quoted (they
+                    // may be any file's bytes).
                     return Err(err(format!(
-                        "{what}: index {bad} (accessor {}) is out of range for {} vertices",
+                        "{what}: element {bad} of the indices (accessor {}) refers past the last of {} vertices",
                         acc.index(),
                         positions.len()
                     )));

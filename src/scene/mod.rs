@@ -8,6 +8,7 @@ mod gltf_load;
 pub mod light;
 pub mod material;
 mod normals;
+pub mod uri;
 
 use std::path::PathBuf;
 
@@ -16,10 +17,11 @@ use glam::{DVec3, Vec3};
 pub use camera::{CameraDesc, Projection};
 pub use features::SceneFeatures;
 pub use flat::{FlatScene, ViewSettings};
-pub use gltf_load::{load, load_from_bytes, SUPPORTED_EXTENSIONS};
+pub use gltf_load::{load, load_from_bytes, load_with, SUPPORTED_EXTENSIONS};
 pub use light::{PunctualKind, PunctualLight};
 pub use material::{AlphaMode, MaterialDesc, TextureSlot};
 pub use normals::{oct_decode, oct_encode};
+pub use uri::LoadOptions;
 
 /// A node's world transform as it applies to a mesh: points by the affine matrix, normals by
 /// the inverse transpose of its linear part (pbrt-v4 §3.10.3), and the winding flipped when
