@@ -15,6 +15,9 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
+    /// An input image (for comparison) is unreadable, truncated or malformed.
+    #[error("{file}: {message}")]
+    Image { file: String, message: String },
     /// An output could not be encoded or written.
     #[error("{file}: {message}")]
     Output { file: String, message: String },
@@ -33,6 +36,10 @@ impl Error {
 
     pub fn io(file: &Path, source: std::io::Error) -> Error {
         Error::Io { file: file.display().to_string(), source }
+    }
+
+    pub fn image(file: &Path, message: impl Into<String>) -> Error {
+        Error::Image { file: file.display().to_string(), message: message.into() }
     }
 
     pub fn output(file: &Path, message: impl Into<String>) -> Error {

@@ -32,6 +32,43 @@ enum Command {
     Info,
     /// Measure scene preparation and render throughput; prints markdown tables.
     Bench(BenchArgs),
+    /// Compare two images, noise-aware: exit 0 if they match, 1 if they differ, 2 on bad input.
+    Compare(CompareArgs),
+}
+
+#[derive(clap::Args)]
+struct CompareArgs {
+    /// The image under test (.exr, ideally a pathlight EXR with variance, or .png).
+    test: PathBuf,
+    /// The reference image (.exr or .png).
+    reference: PathBuf,
+    /// Family-wise false-alarm rate of the statistical test.
+    #[arg(long, default_value_t = 0.01)]
+    alpha: f64,
+    /// Edge of the pixel blocks pooled by the statistical test.
+    #[arg(long, default_value_t = 4)]
+    block: usize,
+    /// Also fail when the RMSE exceeds this.
+    #[arg(long)]
+    max_rmse: Option<f64>,
+    /// Also fail when the relMSE (mean of (t − r)² / (r² + 0.01)) exceeds this.
+    #[arg(long)]
+    max_relmse: Option<f64>,
+    /// Also fail when the mean FLIP error exceeds this.
+    #[arg(long)]
+    max_flip: Option<f64>,
+    /// Also fail when any |test − reference| exceeds this.
+    #[arg(long)]
+    max_abs: Option<f64>,
+    /// Print every number as JSON on standard output instead of the text report.
+    #[arg(long)]
+    json: bool,
+    /// Write a heat map of |z| (or of |test − reference| without variance) to this PNG.
+    #[arg(long)]
+    diff: Option<PathBuf>,
+    /// Write the per-pixel z-scores to this EXR.
+    #[arg(long)]
+    zmap: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -128,16 +165,58 @@ fn main() -> ExitCode {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
     let cli = Cli::parse();
+    if let Command::Compare(args) = cli.command {
+        return run_compare(args);
+    }
     let result = match cli.command {
         Command::Render(args) => run_render(args),
         Command::Info => run_info(),
         Command::Bench(args) => run_bench(args),
+        Command::Compare(_) => unreachable!("handled above"),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
+        }
+    }
+}
+
+/// `compare` has its own exit codes: 0 same, 1 different, 2 bad input or usage.
+fn run_compare(args: CompareArgs) -> ExitCode {
+    use pathlight::film::{compare_images, write_diff_png, write_zmap_exr, CompareOptions, LinearImage};
+    let run = || -> Result<bool, Error> {
+        let test = LinearImage::read(&args.test)?;
+        let reference = LinearImage::read(&args.reference)?;
+        let options = CompareOptions {
+            alpha: args.alpha,
+            block: args.block,
+            max_rmse: args.max_rmse,
+            max_relmse: args.max_relmse,
+            max_flip: args.max_flip,
+            max_abs: args.max_abs,
+        };
+        let report = compare_images(&test, &reference, &options)?;
+        if let Some(p) = &args.diff {
+            write_diff_png(&report, &test, &reference, p)?;
+        }
+        if let Some(p) = &args.zmap {
+            write_zmap_exr(&report, p)?;
+        }
+        if args.json {
+            println!("{:#}", report.to_json());
+        } else {
+            println!("{} vs {}: {report}", args.test.display(), args.reference.display());
+        }
+        Ok(report.same())
+    };
+    match run() {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::from(1),
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
         }
     }
 }

@@ -2,13 +2,19 @@
 //!
 //! WGSL twin of the accumulation: `film_add_sample` in `shaders/film.wgsl`.
 
+pub mod compare;
+mod diff_image;
 mod exr_io;
+mod image;
 mod png_io;
 mod tonemap;
 
 use glam::Vec3;
 
+pub use compare::{compare_images, CompareOptions, CompareReport};
+pub use diff_image::{write_diff_png, write_zmap_exr};
 pub use exr_io::{read_exr, write_exr, ExrImage, RenderMetadata};
+pub use image::{srgb_to_linear, LinearImage};
 pub use png_io::write_png;
 pub use tonemap::{linear_to_srgb, Tonemap};
 
