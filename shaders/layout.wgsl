@@ -1,4 +1,4 @@
-// Twin of src/gpu/layout.rs: every struct and constant the kernels share with the host.
+// Twin of src/scene/layout.rs: every struct and constant the kernels share with the host.
 // The test `layout_matches_wgsl` (src/gpu/shader.rs) parses this file with naga and checks
 // each struct's size and field offsets, and each constant's value, against the Rust ones.
 

@@ -38,7 +38,7 @@ use super::thin_transmission::{
 use super::transmission::{
     transmission_eval, transmission_half_vector, transmission_pdf, transmission_sample,
 };
-use crate::gpu::layout::{Material, MATERIAL_VOLUME};
+use crate::scene::layout::{Material, MATERIAL_VOLUME};
 
 /// Every lobe that can contribute is chosen with at least this (unnormalised) weight, so
 /// an underestimated lobe is never starved into bias.

@@ -6,7 +6,7 @@ use std::time::Instant;
 use glam::Vec3;
 
 use crate::geometry::Aabb;
-use crate::gpu::layout::BvhNode;
+use crate::scene::layout::BvhNode;
 
 /// SAH bins per split axis.
 const BIN_COUNT: usize = 16;

@@ -1,5 +1,5 @@
 //! Bounding volume hierarchy over triangles: built by binned SAH in a pointer tree,
-//! flattened into the 32-byte [`BvhNode`](crate::gpu::layout::BvhNode) array that both
+//! flattened into the 32-byte [`BvhNode`](crate::scene::layout::BvhNode) array that both
 //! backends traverse.
 //!
 //! WGSL twin of `traverse.rs`: `shaders/bvh.wgsl`.

@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 use crate::geometry::{intersect_box, intersect_triangle, Ray, RayBoxPrecomp, TriangleHit};
-use crate::gpu::layout::{BvhNode, Triangle};
+use crate::scene::layout::{BvhNode, Triangle};
 
 use super::build::MAX_DEPTH;
 

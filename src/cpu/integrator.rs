@@ -14,11 +14,11 @@ use glam::Vec3;
 use crate::bsdf::GltfBsdf;
 use crate::bvh::{intersect_any, intersect_closest, ClosestHit};
 use crate::geometry::{spawn_ray, triangle_error_bound, Frame, Ray};
-use crate::gpu::layout::{
-    FirstHit, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, TRIANGLE_HAS_NORMALS,
-};
 use crate::light::{sample_light, triangle_light_pdf};
 use crate::sampling::{power_heuristic, Rng};
+use crate::scene::layout::{
+    FirstHit, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, TRIANGLE_HAS_NORMALS,
+};
 use crate::scene::{oct_decode, FlatScene};
 
 /// A hard stop against runaway paths (e.g. a non-finite throughput that defeats Russian

@@ -18,7 +18,7 @@ pub use image::{srgb_to_linear, LinearImage};
 pub use png_io::write_png;
 pub use tonemap::{linear_to_srgb, Tonemap};
 
-use crate::gpu::layout::FilmPixel;
+use crate::scene::layout::FilmPixel;
 
 /// Adds one sample to a pixel by Welford's update (Welford 1962): stable in f32 for millions
 /// of samples because it accumulates deviations from the running mean, not raw sums.

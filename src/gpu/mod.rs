@@ -3,7 +3,6 @@
 //! reference.
 
 pub mod context;
-pub mod layout;
 mod renderer;
 pub mod shader;
 

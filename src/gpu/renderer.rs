@@ -7,10 +7,10 @@ use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, Kernel};
-use super::layout::{FilmPixel, FirstHit, FrameParams, Light};
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::render::{Backend, RenderSettings};
+use crate::scene::layout::{FilmPixel, FirstHit, FrameParams, Light};
 use crate::scene::FlatScene;
 
 /// Each submit is sized to take about this long: long enough that per-submit overhead is

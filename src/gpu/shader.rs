@@ -66,7 +66,7 @@ pub fn parse_and_validate(source: &str) -> Result<naga::Module, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::layout;
+    use crate::scene::layout;
 
     #[test]
     fn every_wgsl_file_validates_with_its_dependencies() {
@@ -84,7 +84,7 @@ mod tests {
         assert_eq!(locate(layout_lines + 3), "shaders/features.wgsl:1");
     }
 
-    /// Every struct in `src/gpu/layout.rs` exists in WGSL with the same size and the same
+    /// Every struct in `src/scene/layout.rs` exists in WGSL with the same size and the same
     /// field offsets, and every shared constant has the same value.
     #[test]
     fn layout_matches_wgsl() {

@@ -7,11 +7,11 @@
 use glam::{Vec2, Vec3};
 
 use crate::geometry::{gamma, offset_ray_origin, spawn_ray, spawn_ray_to, Ray};
-use crate::gpu::layout::{
+use crate::sampling::sample_uniform_triangle;
+use crate::scene::layout::{
     Light, Material, Triangle, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE,
     MATERIAL_DOUBLE_SIDED,
 };
-use crate::sampling::sample_uniform_triangle;
 
 /// The flat arrays light sampling reads.
 #[derive(Clone, Copy)]

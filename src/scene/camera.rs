@@ -2,7 +2,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::gpu::layout::{self, PROJECTION_ORTHOGRAPHIC, PROJECTION_PERSPECTIVE};
+use crate::scene::layout::{self, PROJECTION_ORTHOGRAPHIC, PROJECTION_PERSPECTIVE};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Projection {

@@ -2,7 +2,9 @@
 //! The GPU kernel is specialised to this set; the CPU reference ignores it, so a wrong
 //! feature set shows up as a GPU–CPU disagreement in the equivalence tests.
 
-use crate::gpu::layout::{self, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_VOLUME};
+use crate::scene::layout::{
+    self, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_VOLUME,
+};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct SceneFeatures {

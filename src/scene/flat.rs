@@ -6,12 +6,12 @@ use glam::{DVec3, Vec3};
 use super::{oct_encode, CameraDesc, PunctualKind, Scene, SceneFeatures};
 use crate::bvh::{self, BvhStats};
 use crate::error::{Error, Result};
-use crate::gpu::layout::{
+use crate::light::triangle_normal_area;
+use crate::sampling::build_alias_table;
+use crate::scene::layout::{
     self, BvhNode, Light, Triangle, TriangleNormals, INVALID_INDEX, LIGHT_DIRECTIONAL, LIGHT_POINT,
     LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, TRIANGLE_HAS_NORMALS,
 };
-use crate::light::triangle_normal_area;
-use crate::sampling::build_alias_table;
 
 /// Which camera to render through, and the image's shape.
 #[derive(Clone, Copy, Debug, PartialEq)]

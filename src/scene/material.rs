@@ -1,10 +1,10 @@
 //! Materials as the glTF file describes them, and their reduction to the kernel's
-//! [`Material`](crate::gpu::layout::Material).
+//! [`Material`](crate::scene::layout::Material).
 
 use glam::Vec3;
 
 use crate::bsdf::alpha_from_roughness;
-use crate::gpu::layout::{self, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
+use crate::scene::layout::{self, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
 
 /// A texture reference (glTF `textureInfo`). Textures are loaded by a later stage; the slot
 /// is kept so that the loader records everything the file asks for.

@@ -5,6 +5,7 @@ pub mod camera;
 mod features;
 mod flat;
 mod gltf_load;
+pub mod layout;
 pub mod light;
 pub mod material;
 mod normals;

@@ -1,4 +1,7 @@
-//! Every struct that crosses the CPU–GPU boundary, in one place.
+//! Every struct of the flat scene both backends render from, in one place: the loader
+//! writes them, the CPU reference and the BSDF read them, and the GPU uploads them as they
+//! are. (They live with the scene, not the GPU backend, so that the reference depends on
+//! nothing of the backend it checks.)
 //!
 //! Each is `#[repr(C)]` + [`bytemuck::Pod`] with named padding (`_pad*`), declared through
 //! [`gpu_struct!`], which also records every field's offset. The WGSL twins live in
