@@ -501,4 +501,37 @@ fn main() {
     );
     g.perspective_camera("camera", 45f64.to_radians(), [0.0, 0.9, 2.6], [-0.12, 0.0, 0.0, 0.992_774_4]);
     g.write(&dir.join("punctual.gltf"), "Point, spot and directional lights only (no emissive surfaces)");
+
+    // Environment furnace: a closed, convex, white Lambertian sphere and no light of its own.
+    // Under a constant environment of radiance L every point of it sees only sky, so every
+    // pixel, sphere and background alike, is exactly L (with no --env or --background,
+    // pathlight's default background: L = 1).
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white", [1.0, 1.0, 1.0]));
+    g.mesh("sphere", &Mesh::icosphere([0.0; 3], 1.0, 3, false, true), white);
+    g.perspective_camera("camera", 40f64.to_radians(), [0.0, 0.0, 4.0], [0.0, 0.0, 0.0, 1.0]);
+    g.write(
+        &dir.join("env-furnace.gltf"),
+        "Environment furnace: a white Lambertian sphere with no lights; under a constant environment of radiance L every pixel is exactly L",
+    );
+
+    // Objects for environment lighting (no light of their own: render with --env).
+    let mut g = Gltf::default();
+    let grey = g.material(lambert("grey floor", [0.5, 0.5, 0.5]));
+    let gold = g.material(metal("rough gold", [1.0, 0.78, 0.34], 0.3));
+    let chrome = g.material(metal("chrome", [0.95, 0.95, 0.95], 0.0));
+    let clay = g.material(lambert("clay", [0.8, 0.45, 0.3]));
+    let glass = g.material(glass("glass", 0.0, Some(([0.9, 0.95, 1.0], 0.5))));
+    let mut floor = Mesh::default();
+    floor.quad([[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]], [0.0, 1.0, 0.0]);
+    g.mesh("floor", &floor, grey);
+    g.mesh("gold sphere", &Mesh::icosphere([-0.9, 0.4, 0.0], 0.4, 3, false, true), gold);
+    g.mesh("chrome sphere", &Mesh::icosphere([0.0, 0.4, -0.5], 0.4, 3, false, true), chrome);
+    g.mesh("clay sphere", &Mesh::icosphere([0.9, 0.4, 0.0], 0.4, 3, false, true), clay);
+    g.mesh("glass sphere", &Mesh::icosphere([0.0, 0.3, 0.6], 0.3, 3, false, true), glass);
+    g.perspective_camera("camera", 45f64.to_radians(), [0.0, 1.3, 3.4], [-0.17, 0.0, 0.0, 0.985_445_3]);
+    g.write(
+        &dir.join("env-objects.gltf"),
+        "Metal, diffuse and glass spheres on a floor, no lights: render them under an environment (--env)",
+    );
 }

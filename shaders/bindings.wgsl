@@ -18,3 +18,9 @@
 @group(0) @binding(8) var<storage, read_write> first_hits: array<FirstHit>;
 // Rays traced per pixel (closest-hit and shadow rays), for throughput reporting.
 @group(0) @binding(9) var<storage, read_write> ray_counts: array<u32>;
+// The environment light (src/light/environment.rs): parameters, texels (rgb radiance, w the
+// sampling density over (u, v)), and the marginal then conditional CDFs. A scene without
+// one binds one unused element of each.
+@group(0) @binding(10) var<storage, read> environment: Environment;
+@group(0) @binding(11) var<storage, read> environment_texels: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read> environment_cdf: array<f32>;

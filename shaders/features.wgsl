@@ -9,3 +9,4 @@ override FEATURE_EMISSIVE_TRIANGLES: bool = true;
 override FEATURE_POINT_LIGHTS: bool = true;
 override FEATURE_SPOT_LIGHTS: bool = true;
 override FEATURE_DIRECTIONAL_LIGHTS: bool = true;
+override FEATURE_ENVIRONMENT: bool = true;

@@ -59,6 +59,15 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
     loop {
         let hit = intersect_closest(ray);
         if (hit.triangle == INVALID_INDEX) {
+            if (FEATURE_ENVIRONMENT && environment.present != 0u) {
+                let env = environment_lookup(ray.direction);
+                if (depth == 0u || prev_delta || environment.light_index == INVALID_INDEX) {
+                    l += beta * env.radiance;
+                } else {
+                    let light_pdf = lights[environment.light_index].pmf * env.pdf_solid_angle;
+                    l += beta * env.radiance * power_heuristic(prev_pdf, light_pdf);
+                }
+            }
             break;
         }
         let si = surface_interaction(ray, hit);

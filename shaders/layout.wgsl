@@ -62,6 +62,17 @@ struct Camera {
     half_width: f32,
 }
 
+struct Environment {
+    width: u32,
+    height: u32,
+    rotation_cos: f32,
+    rotation_sin: f32,
+    light_index: u32,
+    present: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
 struct FrameParams {
     width: u32,
     height: u32,
@@ -99,5 +110,6 @@ const LIGHT_TRIANGLE: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
 const LIGHT_SPOT: u32 = 2u;
 const LIGHT_DIRECTIONAL: u32 = 3u;
+const LIGHT_ENVIRONMENT: u32 = 4u;
 const PROJECTION_PERSPECTIVE: u32 = 0u;
 const PROJECTION_ORTHOGRAPHIC: u32 = 1u;

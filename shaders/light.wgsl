@@ -81,6 +81,13 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_sele
         }
         return LightSample(wi, radiance, pmf, true, spawn_ray_to(p, p_error, n_geometric, light.position), true);
     }
+    if (FEATURE_ENVIRONMENT && light.kind == LIGHT_ENVIRONMENT) {
+        let es = sample_environment(u_point);
+        if (!es.valid) {
+            return no_light_sample();
+        }
+        return LightSample(es.wi, es.radiance, pmf * es.pdf_solid_angle, false, spawn_ray(p, p_error, n_geometric, es.wi), true);
+    }
     if (FEATURE_DIRECTIONAL_LIGHTS && light.kind == LIGHT_DIRECTIONAL) {
         let wi = -light.direction;
         return LightSample(wi, light.intensity, pmf, true, spawn_ray(p, p_error, n_geometric, wi), true);

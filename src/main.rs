@@ -155,6 +155,30 @@ struct RenderArgs {
     /// folder. Only for scenes you trust: see "Untrusted input" in the README.
     #[arg(long)]
     allow_any_path: bool,
+    /// Environment light: an equirectangular .hdr or .exr map (+Y up, Mitsuba 3's convention).
+    #[arg(long, conflicts_with = "background")]
+    env: Option<PathBuf>,
+    /// Scale of the environment map's radiance.
+    #[arg(long, default_value_t = 1.0, requires = "env")]
+    env_intensity: f32,
+    /// Rotation of the environment map about +Y, in degrees.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, requires = "env")]
+    env_rotation: f32,
+    /// A constant environment of this linear radiance, e.g. 0.5,0.5,0.5.
+    #[arg(long, value_parser = parse_rgb)]
+    background: Option<glam::Vec3>,
+}
+
+/// Parses `R,G,B` (three finite, non-negative numbers).
+fn parse_rgb(s: &str) -> Result<glam::Vec3, String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>().map_err(|e| format!("'{p}': {e}")))
+        .collect::<Result<_, _>>()?;
+    match parts[..] {
+        [r, g, b] if parts.iter().all(|v| v.is_finite() && *v >= 0.0) => Ok(glam::Vec3::new(r, g, b)),
+        _ => Err("expected three non-negative numbers R,G,B".into()),
+    }
 }
 
 fn main() -> ExitCode {
@@ -312,9 +336,20 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         check_output(o)?;
     }
     let options = LoadOptions { allow_any_path: args.allow_any_path };
-    let (scene, warnings) = pathlight::scene::load_with(&args.scene, &options)?;
+    let (mut scene, warnings) = pathlight::scene::load_with(&args.scene, &options)?;
     for w in &warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
+    }
+    if let Some(path) = &args.env {
+        if !args.env_intensity.is_finite() || args.env_intensity < 0.0 || !args.env_rotation.is_finite() {
+            return Err(Error::Settings("--env-intensity must be ≥ 0 and --env-rotation finite".into()));
+        }
+        let mut env = pathlight::light::EnvironmentDesc::load(path)?;
+        env.intensity = args.env_intensity;
+        env.rotation_degrees = args.env_rotation;
+        scene.environment = Some(env);
+    } else if let Some(rgb) = args.background {
+        scene.environment = Some(pathlight::light::EnvironmentDesc::constant(rgb));
     }
     let camera_aspect = match args.camera {
         Some(i) => scene.cameras.get(i).and_then(|c| c.aspect_ratio()),
@@ -332,6 +367,12 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     settings.validate()?;
     let view = ViewSettings { camera: args.camera, aspect: width as f64 / height as f64 };
     let flat = FlatScene::build(&scene, &view)?;
+    if flat.default_environment {
+        eprintln!(
+            "warning: {}: the scene has no lights and no --env or --background was given; lighting it with a constant white background of radiance 1 (see README, \"Lights\")",
+            args.scene.display()
+        );
+    }
     eprintln!(
         "{}: {} triangles, {} lights, BVH {} nodes built in {:.3} s (SAH cost {:.2}), features: {}",
         args.scene.display(),

@@ -6,10 +6,10 @@ mod common;
 use glam::Vec3;
 use pathlight::bvh::{build, intersect_any, intersect_closest, MAX_DEPTH};
 use pathlight::geometry::{intersect_triangle, spawn_ray, triangle_error_bound, Ray};
-use pathlight::gpu::layout::Triangle;
 use pathlight::sampling::{sample_uniform_sphere, Rng};
+use pathlight::scene::layout::Triangle;
 
-fn to_flat(tris: &[[Vec3; 3]]) -> (Vec<pathlight::gpu::layout::BvhNode>, Vec<Triangle>) {
+fn to_flat(tris: &[[Vec3; 3]]) -> (Vec<pathlight::scene::layout::BvhNode>, Vec<Triangle>) {
     let bvh = build(tris);
     let triangles = bvh
         .order
@@ -105,7 +105,7 @@ fn test_scene() -> Vec<[Vec3; 3]> {
 }
 
 fn check_against_brute_force(
-    nodes: &[pathlight::gpu::layout::BvhNode],
+    nodes: &[pathlight::scene::layout::BvhNode],
     triangles: &[Triangle],
     ray: &Ray,
     what: &str,

@@ -36,3 +36,43 @@ fn furnace_albedo_0_5() {
 fn furnace_albedo_0_9() {
     furnace(0.9, "furnace-0.9.gltf");
 }
+
+/// The environment furnace (scenes/env-furnace.gltf): a closed, convex, white Lambertian
+/// sphere with no light of its own under a constant environment of radiance L. Every point
+/// of the sphere sees only sky, so every pixel, sphere and background alike, is exactly L.
+fn environment_furnace(background: Option<glam::Vec3>) {
+    let (w, h, spp) = (40, 40, 64);
+    let (mut scene, _) = pathlight::scene::load(&common::scene("env-furnace.gltf")).unwrap();
+    scene.environment = background.map(pathlight::light::EnvironmentDesc::constant);
+    let flat = pathlight::scene::FlatScene::build(
+        &scene,
+        &pathlight::scene::ViewSettings { camera: None, aspect: 1.0 },
+    )
+    .unwrap();
+    // Without a background the scene has no light: the documented default lights it.
+    assert_eq!(flat.default_environment, background.is_none());
+    let exact = background.unwrap_or(pathlight::scene::DEFAULT_BACKGROUND);
+    let settings = RenderSettings { width: w, height: h, spp, seed: 3, ..RenderSettings::default() };
+    let film = common::render(&mut CpuBackend::new(&flat, &settings), spp);
+    assert_eq!(film.total_rejected(), 0);
+    for (c, (mean, se)) in common::image_mean_and_standard_error(&film).into_iter().enumerate() {
+        let exact = exact[c] as f64;
+        eprintln!("environment furnace, channel {c}: mean {mean:.5} ± {se:.5} (exact {exact})");
+        // 4 standard errors of the image mean: a false failure has probability 6e-5.
+        assert!((mean - exact).abs() < 4.0 * se, "mean {mean} ± {se}, exact {exact}");
+        assert!(se < 0.01 * exact, "standard error {se} is too large to test anything");
+    }
+    // Background pixels see the environment directly: exactly L, with no noise at all.
+    let corner = film.pixel(0, 0);
+    assert_eq!(glam::Vec3::from(corner.mean), exact, "a pixel of open sky");
+}
+
+#[test]
+fn environment_furnace_default_background() {
+    environment_furnace(None);
+}
+
+#[test]
+fn environment_furnace_coloured_background() {
+    environment_furnace(Some(glam::Vec3::new(0.25, 0.5, 1.0)));
+}

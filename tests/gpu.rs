@@ -71,10 +71,15 @@ fn settings(size: u32, spp: u32, seed: u32) -> RenderSettings {
 /// Renders `scene` on both backends with different seeds (independent estimates) and checks
 /// they agree statistically. On failure, the images and the |z| map go to a named folder.
 fn gpu_matches_cpu(file: &str, size: u32, spp: u32) {
+    gpu_matches_cpu_scene(file, &common::flat_scene(&common::scene(file), size, size), size, spp);
+}
+
+/// [`gpu_matches_cpu`] on a scene already flattened (e.g. with an environment attached);
+/// `file` names it in messages and in the failure folder.
+fn gpu_matches_cpu_scene(file: &str, scene: &pathlight::scene::FlatScene, size: u32, spp: u32) {
     let Some(ctx) = common::gpu() else { return };
-    let scene = common::flat_scene(&common::scene(file), size, size);
-    let cpu = common::render(&mut CpuBackend::new(&scene, &settings(size, spp, 1)), spp);
-    let mut gpu_backend = GpuBackend::new(ctx, &scene, &settings(size, spp, 2)).unwrap();
+    let cpu = common::render(&mut CpuBackend::new(scene, &settings(size, spp, 1)), spp);
+    let mut gpu_backend = GpuBackend::new(ctx, scene, &settings(size, spp, 2)).unwrap();
     let gpu = common::render(&mut gpu_backend, spp);
     assert_eq!(gpu.total_samples(), (size * size * spp) as u64 - gpu.total_rejected());
     let c = compare(&cpu, &gpu);
@@ -117,12 +122,16 @@ fn gpu_matches_cpu(file: &str, size: u32, spp: u32) {
 /// paired test sees any systematic difference between the kernels in more than 1% of the
 /// image, far below what the independent-seed z-test can resolve at a test's sample count.
 fn same_seed_agrees(file: &str) {
+    same_seed_agrees_scene(file, &common::flat_scene(&common::scene(file), 32, 32));
+}
+
+/// [`same_seed_agrees`] on a scene already flattened for 32×32.
+fn same_seed_agrees_scene(file: &str, scene: &pathlight::scene::FlatScene) {
     let Some(ctx) = common::gpu() else { return };
     let (size, spp) = (32, 16);
-    let scene = common::flat_scene(&common::scene(file), size, size);
     let s = settings(size, spp, 9);
-    let a = common::render(&mut CpuBackend::new(&scene, &s), spp);
-    let b = common::render(&mut GpuBackend::new(ctx, &scene, &s).unwrap(), spp);
+    let a = common::render(&mut CpuBackend::new(scene, &s), spp);
+    let b = common::render(&mut GpuBackend::new(ctx, scene, &s).unwrap(), spp);
     let mut disagree = Vec::new();
     for (i, (x, y)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         let (x, y) = (Vec3::from(x.mean), Vec3::from(y.mean));
@@ -156,6 +165,8 @@ const SCENES: &[&str] = &[
     "glass-smooth.gltf",
     "glass-rough.gltf",
     "punctual.gltf",
+    "env-furnace.gltf",
+    "env-objects.gltf",
 ];
 
 #[test]
@@ -340,4 +351,39 @@ fn a_film_too_large_for_the_device_is_a_clear_error() {
     let err =
         GpuBackend::new(ctx.clone(), &scene, &settings(side, 1, 0)).map(|_| ()).unwrap_err().to_string();
     assert!(err.contains("film") && err.contains("does not fit"), "{err}");
+}
+
+/// env-objects.gltf under an HDR map from the shared assets (rotated, scaled), or under
+/// pathlight's default background when the assets are absent (said loudly).
+fn environment_scene() -> pathlight::scene::FlatScene {
+    let (mut scene, _) = pathlight::scene::load(&common::scene("env-objects.gltf")).unwrap();
+    if let Some(assets) = common::assets() {
+        let mut env =
+            pathlight::light::EnvironmentDesc::load(&assets.join("env/chinese_garden_1k.hdr")).unwrap();
+        env.intensity = 0.7;
+        env.rotation_degrees = 40.0;
+        scene.environment = Some(env);
+    }
+    pathlight::scene::FlatScene::build(&scene, &pathlight::scene::ViewSettings { camera: None, aspect: 1.0 })
+        .unwrap()
+}
+
+#[test]
+fn env_objects_gpu_matches_cpu() {
+    gpu_matches_cpu("env-objects.gltf", 32, 128);
+}
+
+#[test]
+fn env_furnace_gpu_matches_cpu() {
+    gpu_matches_cpu("env-furnace.gltf", 24, 64);
+}
+
+#[test]
+fn hdr_environment_gpu_matches_cpu() {
+    gpu_matches_cpu_scene("env-objects-garden", &environment_scene(), 32, 128);
+}
+
+#[test]
+fn hdr_environment_same_seed_agrees() {
+    same_seed_agrees_scene("env-objects-garden", &environment_scene());
 }

@@ -11,11 +11,11 @@ use pathlight::bsdf::reflection::{reflection_pdf, reflection_sample};
 use pathlight::bsdf::thin_transmission::{thin_transmission_pdf, thin_transmission_sample};
 use pathlight::bsdf::transmission::{transmission_pdf, transmission_sample};
 use pathlight::bsdf::{alpha_from_roughness, GltfBsdf};
-use pathlight::gpu::layout::{Material, MATERIAL_VOLUME};
 use pathlight::sampling::{
     build_alias_table, cosine_hemisphere_pdf, sample_cosine_hemisphere, sample_uniform_sphere,
     sample_uniform_triangle, Rng,
 };
+use pathlight::scene::layout::{Material, MATERIAL_VOLUME};
 use pathlight::stats::{chi2_test, sidak_alpha};
 
 const SAMPLES: usize = 1_000_000;
@@ -315,9 +315,9 @@ fn alias_table_sampling_matches_weights() {
     let weights: Vec<f64> =
         (0..1000).map(|i| ((i * 7919) % 101) as f64 + if i % 13 == 0 { 500.0 } else { 0.0 }).collect();
     let table = build_alias_table(&weights).unwrap();
-    let lights: Vec<pathlight::gpu::layout::Light> = table
+    let lights: Vec<pathlight::scene::layout::Light> = table
         .iter()
-        .map(|e| pathlight::gpu::layout::Light {
+        .map(|e| pathlight::scene::layout::Light {
             alias_probability: e.probability,
             alias_index: e.alias,
             pmf: e.pmf,

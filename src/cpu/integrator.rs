@@ -14,7 +14,7 @@ use glam::Vec3;
 use crate::bsdf::GltfBsdf;
 use crate::bvh::{intersect_any, intersect_closest, ClosestHit};
 use crate::geometry::{spawn_ray, triangle_error_bound, Frame, Ray};
-use crate::light::{sample_light, triangle_light_pdf};
+use crate::light::{environment_lookup, sample_light, triangle_light_pdf};
 use crate::sampling::{power_heuristic, Rng};
 use crate::scene::layout::{
     FirstHit, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, TRIANGLE_HAS_NORMALS,
@@ -123,7 +123,21 @@ pub fn radiance(
     let mut prev_pdf = 0.0f32;
     loop {
         *rays = rays.wrapping_add(1);
-        let Some(hit) = intersect_closest(&scene.nodes, &scene.triangles, &ray) else { break };
+        let Some(hit) = intersect_closest(&scene.nodes, &scene.triangles, &ray) else {
+            // The ray leaves the scene: the environment's radiance, MIS-weighted against
+            // next-event estimation when NEE could have sampled this direction.
+            let env = &scene.environment;
+            if env.params.present != 0 {
+                let (le, pdf_solid_angle) = environment_lookup(&env.params, &env.texels, ray.direction);
+                if depth == 0 || prev_delta || env.params.light_index == INVALID_INDEX {
+                    l += beta * le;
+                } else {
+                    let light_pdf = scene.lights[env.params.light_index as usize].pmf * pdf_solid_angle;
+                    l += beta * le * power_heuristic(prev_pdf, light_pdf);
+                }
+            }
+            break;
+        };
         let si = surface_interaction(scene, &ray, &hit);
         let material = &scene.materials[si.material as usize];
 

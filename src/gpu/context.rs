@@ -161,6 +161,9 @@ impl GpuContext {
                 storage(7, false),
                 storage(8, false),
                 storage(9, false),
+                storage(10, true),
+                storage(11, true),
+                storage(12, true),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

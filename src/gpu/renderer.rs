@@ -95,6 +95,13 @@ impl GpuBackend {
         let normals = storage("normal buffer", bytemuck::cast_slice(&scene.normals), read_only)?;
         let materials = storage("material buffer", bytemuck::cast_slice(&scene.materials), read_only)?;
         let lights = storage("light buffer", bytemuck::cast_slice(&lights), read_only)?;
+        let env = &scene.environment;
+        let environment = storage("environment", bytemuck::bytes_of(&env.params), read_only)?;
+        // Bindings may not be empty: without an environment, one unused element each.
+        let env_texels = if env.texels.is_empty() { vec![[0.0f32; 4]] } else { env.texels.clone() };
+        let env_cdf = if env.cdf.is_empty() { vec![0.0f32] } else { env.cdf.clone() };
+        let environment_texels = storage("environment texels", bytemuck::cast_slice(&env_texels), read_only)?;
+        let environment_cdf = storage("environment distribution", bytemuck::cast_slice(&env_cdf), read_only)?;
         let pixels = settings.width as u64 * settings.height as u64;
         let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let zeroed = |what: &str, bytes: u64| -> Result<wgpu::Buffer> {
@@ -134,6 +141,9 @@ impl GpuBackend {
             &film,
             &first_hits,
             &ray_counts,
+            &environment,
+            &environment_texels,
+            &environment_cdf,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()

@@ -4,13 +4,20 @@
 //!
 //! WGSL twin: `shaders/light.wgsl` (same function names).
 
+mod environment;
+
+pub use environment::{
+    atan2_polynomial, environment_direction, environment_lookup, environment_uv, find_interval,
+    sample_environment, EnvironmentDesc, FlatEnvironment,
+};
+
 use glam::{Vec2, Vec3};
 
 use crate::geometry::{gamma, offset_ray_origin, spawn_ray, spawn_ray_to, Ray};
 use crate::sampling::sample_uniform_triangle;
 use crate::scene::layout::{
-    Light, Material, Triangle, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE,
-    MATERIAL_DOUBLE_SIDED,
+    Environment, Light, Material, Triangle, LIGHT_DIRECTIONAL, LIGHT_ENVIRONMENT, LIGHT_POINT, LIGHT_SPOT,
+    LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED,
 };
 
 /// The flat arrays light sampling reads.
@@ -19,6 +26,9 @@ pub struct LightArrays<'a> {
     pub lights: &'a [Light],
     pub triangles: &'a [Triangle],
     pub materials: &'a [Material],
+    pub environment: &'a Environment,
+    pub environment_texels: &'a [[f32; 4]],
+    pub environment_cdf: &'a [f32],
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -134,6 +144,21 @@ pub fn sample_light(
                 pdf: pmf,
                 is_delta: true,
                 shadow_ray: spawn_ray_to(p, p_error, n_geometric, pos),
+            })
+        }
+        LIGHT_ENVIRONMENT => {
+            let (wi, radiance, pdf) = sample_environment(
+                arrays.environment,
+                arrays.environment_texels,
+                arrays.environment_cdf,
+                u_point,
+            )?;
+            Some(LightSample {
+                wi,
+                radiance,
+                pdf: pmf * pdf,
+                is_delta: false,
+                shadow_ray: spawn_ray(p, p_error, n_geometric, wi),
             })
         }
         LIGHT_DIRECTIONAL => {

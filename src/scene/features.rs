@@ -22,6 +22,8 @@ pub struct SceneFeatures {
     /// Spot lights (their cone falloff).
     pub spot_lights: bool,
     pub directional_lights: bool,
+    /// An environment light (a map or a constant background).
+    pub environment: bool,
 }
 
 impl SceneFeatures {
@@ -34,6 +36,7 @@ impl SceneFeatures {
         point_lights: true,
         spot_lights: true,
         directional_lights: true,
+        environment: true,
     };
 
     /// The features of `materials[i]` for every `i` in `used_materials`, and of `lights`.
@@ -66,7 +69,7 @@ impl SceneFeatures {
     }
 
     /// `(WGSL override name, value)` for each feature, as the kernel declares them.
-    pub fn pipeline_constants(&self) -> [(&'static str, bool); 7] {
+    pub fn pipeline_constants(&self) -> [(&'static str, bool); 8] {
         [
             ("FEATURE_SPECULAR", self.specular),
             ("FEATURE_TRANSMISSION", self.transmission),
@@ -75,6 +78,7 @@ impl SceneFeatures {
             ("FEATURE_POINT_LIGHTS", self.point_lights),
             ("FEATURE_SPOT_LIGHTS", self.spot_lights),
             ("FEATURE_DIRECTIONAL_LIGHTS", self.directional_lights),
+            ("FEATURE_ENVIRONMENT", self.environment),
         ]
     }
 

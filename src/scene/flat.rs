@@ -6,11 +6,11 @@ use glam::{DVec3, Vec3};
 use super::{oct_encode, CameraDesc, PunctualKind, Scene, SceneFeatures};
 use crate::bvh::{self, BvhStats};
 use crate::error::{Error, Result};
-use crate::light::triangle_normal_area;
+use crate::light::{triangle_normal_area, EnvironmentDesc, FlatEnvironment};
 use crate::sampling::build_alias_table;
 use crate::scene::layout::{
-    self, BvhNode, Light, Triangle, TriangleNormals, INVALID_INDEX, LIGHT_DIRECTIONAL, LIGHT_POINT,
-    LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, TRIANGLE_HAS_NORMALS,
+    self, BvhNode, Light, Triangle, TriangleNormals, INVALID_INDEX, LIGHT_DIRECTIONAL, LIGHT_ENVIRONMENT,
+    LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, TRIANGLE_HAS_NORMALS,
 };
 
 /// Which camera to render through, and the image's shape.
@@ -38,7 +38,17 @@ pub struct FlatScene {
     pub bvh_stats: BvhStats,
     /// Radius of the sphere about the scene's bounding-box centre that holds it.
     pub scene_radius: f32,
+    /// The environment light (`params.present == 0` when there is none).
+    pub environment: FlatEnvironment,
+    /// The scene has no light of its own and no environment was given, so it is lit by
+    /// [`DEFAULT_BACKGROUND`] rather than rendered black; callers should say so.
+    pub default_environment: bool,
 }
+
+/// What lights a scene that has no light of its own and no `--env`/`--background`: a
+/// constant white sky of radiance 1, under which a white Lambertian surface that sees only
+/// sky has radiance 1.
+pub const DEFAULT_BACKGROUND: Vec3 = Vec3::ONE;
 
 /// Rec. 709 luminance of linear RGB.
 pub fn luminance(c: Vec3) -> f32 {
@@ -99,6 +109,25 @@ impl FlatScene {
         // spots, π·r²·E for directional lights over the scene's bounding disk.
         let mut lights = Vec::new();
         let mut powers = Vec::new();
+        let has_emission = triangles.iter().any(|t| {
+            let m = &materials[t.material as usize];
+            Vec3::from(m.emission).max_element() > 0.0
+        });
+        let default_environment = scene.environment.is_none() && scene.lights.is_empty() && !has_emission;
+        let environment_desc = match &scene.environment {
+            Some(e) => Some(e.clone()),
+            None if default_environment => Some(EnvironmentDesc::constant(DEFAULT_BACKGROUND)),
+            None => None,
+        };
+        let mut environment = FlatEnvironment::default();
+        if let Some(desc) = &environment_desc {
+            environment = FlatEnvironment::build(desc, scene_radius);
+            if environment.power > 0.0 {
+                environment.params.light_index = lights.len() as u32;
+                lights.push(Light { kind: LIGHT_ENVIRONMENT, triangle: INVALID_INDEX, ..Default::default() });
+                powers.push(environment.power);
+            }
+        }
         for (i, tri) in triangles.iter_mut().enumerate() {
             let m = &materials[tri.material as usize];
             let le = Vec3::from(m.emission);
@@ -149,17 +178,20 @@ impl FlatScene {
                 l.alias_index = e.alias;
             }
         } else {
-            // No light carries power: nothing to sample. Emissive triangles keep no index.
+            // No light carries power: nothing to sample. Emissive triangles and the
+            // environment keep no index.
             lights.clear();
             for t in &mut triangles {
                 t.emitter = INVALID_INDEX;
             }
+            environment.params.light_index = INVALID_INDEX;
         }
         let mut used_materials = vec![false; materials.len()];
         for t in &triangles {
             used_materials[t.material as usize] = true;
         }
-        let features = SceneFeatures::detect(&materials, &used_materials, &lights);
+        let mut features = SceneFeatures::detect(&materials, &used_materials, &lights);
+        features.environment = environment.params.present != 0;
         Ok(FlatScene {
             camera: camera_desc.to_gpu(view.aspect),
             nodes: bvh.nodes,
@@ -171,6 +203,8 @@ impl FlatScene {
             features,
             bvh_stats: bvh.stats,
             scene_radius,
+            environment,
+            default_environment,
         })
     }
 
@@ -180,6 +214,9 @@ impl FlatScene {
             lights: &self.lights,
             triangles: &self.triangles,
             materials: &self.materials,
+            environment: &self.environment.params,
+            environment_texels: &self.environment.texels,
+            environment_cdf: &self.environment.cdf,
         }
     }
 }

@@ -172,6 +172,28 @@ pub const LIGHT_TRIANGLE: u32 = 0;
 pub const LIGHT_POINT: u32 = 1;
 pub const LIGHT_SPOT: u32 = 2;
 pub const LIGHT_DIRECTIONAL: u32 = 3;
+/// The environment (see [`Environment`]): one entry of the light table like any other.
+pub const LIGHT_ENVIRONMENT: u32 = 4;
+
+gpu_struct! {
+    /// The environment light: an equirectangular map of `width × height` texels (row 0 at
+    /// the top, +Y up) with its sampling distribution, 32 bytes. Texels and distribution are
+    /// separate arrays (`src/light/environment.rs` describes them).
+    pub struct Environment {
+        pub width: u32,
+        pub height: u32,
+        /// Rotation of the map about +Y: cos and sin of the angle.
+        pub rotation_cos: f32,
+        pub rotation_sin: f32,
+        /// The environment's entry in the light array, or [`INVALID_INDEX`] when it carries
+        /// no power (it is then seen, but never sampled).
+        pub light_index: u32,
+        /// 1 when the scene has an environment; 0: rays that miss see black.
+        pub present: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+    }
+}
 
 gpu_struct! {
     /// The camera, in camera-relative world space (it sits at the origin), 48 bytes.
@@ -261,6 +283,7 @@ pub fn all_layouts() -> Vec<StructLayout> {
         entry::<Material>(),
         entry::<Light>(),
         entry::<Camera>(),
+        entry::<Environment>(),
         entry::<FrameParams>(),
         entry::<FilmPixel>(),
         entry::<FirstHit>(),

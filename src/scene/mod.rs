@@ -17,7 +17,7 @@ use glam::{DVec3, Vec3};
 
 pub use camera::{CameraDesc, Projection};
 pub use features::SceneFeatures;
-pub use flat::{FlatScene, ViewSettings};
+pub use flat::{FlatScene, ViewSettings, DEFAULT_BACKGROUND};
 pub use gltf_load::{load, load_from_bytes, load_with, SUPPORTED_EXTENSIONS};
 pub use light::{PunctualKind, PunctualLight};
 pub use material::{AlphaMode, MaterialDesc, TextureSlot};
@@ -68,6 +68,8 @@ pub struct Scene {
     pub materials: Vec<MaterialDesc>,
     pub lights: Vec<PunctualLight>,
     pub cameras: Vec<CameraDesc>,
+    /// Light from infinitely far away (`--env`, `--background`); glTF files carry none.
+    pub environment: Option<crate::light::EnvironmentDesc>,
 }
 
 impl Scene {
