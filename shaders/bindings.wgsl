@@ -24,3 +24,11 @@
 @group(0) @binding(10) var<storage, read> environment: Environment;
 @group(0) @binding(11) var<storage, read> environment_texels: array<vec4<f32>>;
 @group(0) @binding(12) var<storage, read> environment_cdf: array<f32>;
+// Textures (src/scene/texture.rs): RGBA8 texels, per-texture descriptors, how each material
+// input reads its texture, and per-triangle UVs and tangents. A scene without them binds one
+// unused element of each.
+@group(0) @binding(13) var<storage, read> texels: array<u32>;
+@group(0) @binding(14) var<storage, read> texture_infos: array<TextureInfo>;
+@group(0) @binding(15) var<storage, read> texture_bindings: array<TextureBinding>;
+@group(0) @binding(16) var<storage, read> texcoords: array<TriangleTexcoords>;
+@group(0) @binding(17) var<storage, read> tangents: array<TriangleTangents>;

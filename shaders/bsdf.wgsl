@@ -53,7 +53,11 @@ fn ggx_d(m: vec3<f32>, alpha: f32) -> f32 {
         return 0.0;
     }
     let a2 = alpha * alpha;
-    let d = m.z * m.z * (a2 - 1.0) + 1.0;
+    // sin²θ + α²cos²θ without cancellation (see the CPU twin).
+    let d = m.x * m.x + m.y * m.y + a2 * (m.z * m.z);
+    if (d <= 0.0) {
+        return 0.0;
+    }
     return a2 / (PI * d * d);
 }
 
@@ -441,4 +445,14 @@ fn gltf_bsdf_sample(b: GltfBsdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> Bs
     }
     let f = gltf_bsdf_eval(b, wo, wi);
     return BsdfSample(wi, f * abs(wi.z) / pdf, pdf, false, true);
+}
+
+// Twin of `alpha_from_roughness` (src/bsdf/mod.rs): GGX α = roughness², 0 exactly for a
+// delta lobe, else at least MIN_ALPHA.
+fn alpha_from_roughness(roughness: f32) -> f32 {
+    let r = clamp(roughness, 0.0, 1.0);
+    if (r == 0.0) {
+        return 0.0;
+    }
+    return max(r * r, MIN_ALPHA);
 }

@@ -10,3 +10,5 @@ override FEATURE_POINT_LIGHTS: bool = true;
 override FEATURE_SPOT_LIGHTS: bool = true;
 override FEATURE_DIRECTIONAL_LIGHTS: bool = true;
 override FEATURE_ENVIRONMENT: bool = true;
+override FEATURE_TEXTURES: bool = true;
+override FEATURE_NORMAL_MAPS: bool = true;

@@ -15,6 +15,8 @@ struct SurfaceInteraction {
     material: u32,
     emitter: u32,
     distance: f32,
+    // UV sets 0 (xy) and 1 (zw).
+    uv: vec4<f32>,
 }
 
 fn surface_interaction(ray: Ray, hit: ClosestHit) -> SurfaceInteraction {
@@ -26,22 +28,47 @@ fn surface_interaction(ray: Ray, hit: ClosestHit) -> SurfaceInteraction {
     let wo_world = -ray.direction;
     let front_face = dot(wo_world, n_geometric) > 0.0;
     let ng_facing = select(-n_geometric, n_geometric, front_face);
-    var ns = ng_facing;
+    let uv = triangle_uv(hit.triangle, b);
+    var n_front = n_geometric;
     if ((tri.flags & TRIANGLE_HAS_NORMALS) != 0u) {
         let n = normals[hit.triangle];
         let interpolated = try_normalize(b.x * oct_decode(n.n0) + b.y * oct_decode(n.n1) + b.z * oct_decode(n.n2));
         if (interpolated.w != 0.0) {
-            var s = interpolated.xyz;
-            if (dot(s, ng_facing) < 0.0) {
-                s = -s;
-            }
-            if (dot(s, wo_world) > 0.0) {
-                ns = s;
+            n_front = select(interpolated.xyz, -interpolated.xyz, dot(interpolated.xyz, n_geometric) < 0.0);
+        }
+    }
+    var n_mapped = n_front;
+    if (FEATURE_NORMAL_MAPS && (tri.flags & TRIANGLE_HAS_TANGENTS) != 0u) {
+        let material = materials[tri.material];
+        if (material.normal_texture != INVALID_INDEX) {
+            let texel = texture_lookup(material.normal_texture, uv, false);
+            let t = tangents[hit.triangle];
+            let tangent = b.x * oct_decode(t.t0) + b.y * oct_decode(t.t1) + b.z * oct_decode(t.t2);
+            let sign = select(1.0, -1.0, (t.signs & 1u) != 0u);
+            let ortho = try_normalize(tangent - n_front * dot(n_front, tangent));
+            if (ortho.w != 0.0) {
+                let bitangent = cross(n_front, ortho.xyz) * sign;
+                let m = texel.xyz * 2.0 - vec3<f32>(1.0);
+                let scale = material.normal_scale;
+                let mapped = try_normalize(ortho.xyz * (m.x * scale) + bitangent * (m.y * scale) + n_front * m.z);
+                if (mapped.w != 0.0) {
+                    n_mapped = select(mapped.xyz, n_front, dot(mapped.xyz, n_geometric) < 0.0);
+                }
             }
         }
     }
+    // Face the ray; fall back to the interpolated, then the geometric normal where the
+    // viewer would be below the shading hemisphere (the CPU twin explains the rule).
+    let s_mapped = select(-n_mapped, n_mapped, front_face);
+    let s_front = select(-n_front, n_front, front_face);
+    var ns = ng_facing;
+    if (dot(s_mapped, wo_world) > 0.0) {
+        ns = s_mapped;
+    } else if (dot(s_front, wo_world) > 0.0) {
+        ns = s_front;
+    }
     let f = frame_from_z(ns);
-    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), front_face, tri.material, tri.emitter, hit.t);
+    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), front_face, tri.material, tri.emitter, hit.t, uv);
 }
 
 // A NaN, to poison a sample whose throughput stopped being finite (the film rejects it).
@@ -71,7 +98,7 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
             break;
         }
         let si = surface_interaction(ray, hit);
-        let material = materials[si.material];
+        let material = textured_material(materials[si.material], si.uv);
 
         if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
             beta *= exp(-material.attenuation_coefficient * si.distance);
@@ -182,7 +209,7 @@ fn first_hit(@builtin(global_invocation_id) gid: vec3<u32>) {
     var out = FirstHit(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), INVALID_INDEX);
     if (hit.triangle != INVALID_INDEX) {
         let si = surface_interaction(ray, hit);
-        out = FirstHit(si.frame.z, si.distance, materials[si.material].base_color, hit.triangle);
+        out = FirstHit(si.frame.z, si.distance, textured_material(materials[si.material], si.uv).base_color, hit.triangle);
     }
     first_hits[y * frame.width + x] = out;
 }

@@ -37,7 +37,41 @@ struct Material {
     metallic: f32,
     alpha_roughness: f32,
     transmission: f32,
-    _pad0: f32,
+    roughness: f32,
+    base_color_texture: u32,
+    metallic_roughness_texture: u32,
+    normal_texture: u32,
+    emissive_texture: u32,
+    transmission_texture: u32,
+    specular_texture: u32,
+    specular_color_texture: u32,
+    normal_scale: f32,
+}
+
+struct TextureInfo {
+    offset: u32,
+    width: u32,
+    height: u32,
+    flags: u32,
+}
+
+struct TextureBinding {
+    row0: vec3<f32>,
+    texture: u32,
+    row1: vec3<f32>,
+    tex_coord: u32,
+}
+
+struct TriangleTexcoords {
+    uv0: array<vec2<f32>, 3>,
+    uv1: array<vec2<f32>, 3>,
+}
+
+struct TriangleTangents {
+    t0: u32,
+    t1: u32,
+    t2: u32,
+    signs: u32,
 }
 
 struct Light {
@@ -104,6 +138,11 @@ struct FirstHit {
 
 const INVALID_INDEX: u32 = 0xffffffffu;
 const TRIANGLE_HAS_NORMALS: u32 = 1u;
+const TRIANGLE_HAS_TANGENTS: u32 = 2u;
+const WRAP_REPEAT: u32 = 0u;
+const WRAP_CLAMP_TO_EDGE: u32 = 1u;
+const WRAP_MIRRORED_REPEAT: u32 = 2u;
+const TEXTURE_NEAREST: u32 = 16u;
 const MATERIAL_DOUBLE_SIDED: u32 = 1u;
 const MATERIAL_VOLUME: u32 = 2u;
 const LIGHT_TRIANGLE: u32 = 0u;

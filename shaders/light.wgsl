@@ -66,7 +66,7 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_sele
         }
         let pdf = pmf * dist2 / (na.w * abs(cos_light));
         let q_off = offset_ray_origin(q, q_error, na.xyz, -wi);
-        return LightSample(wi, material.emission, pdf, false, spawn_ray_to(p, p_error, n_geometric, q_off), true);
+        return LightSample(wi, emitted_radiance(material, light.triangle, b), pdf, false, spawn_ray_to(p, p_error, n_geometric, q_off), true);
     }
     if (FEATURE_POINT_LIGHTS && (light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT)) {
         let to_light = light.position - p;

@@ -122,11 +122,12 @@ fn gpu_matches_cpu_scene(file: &str, scene: &pathlight::scene::FlatScene, size: 
 /// paired test sees any systematic difference between the kernels in more than 1% of the
 /// image, far below what the independent-seed z-test can resolve at a test's sample count.
 fn same_seed_agrees(file: &str) {
-    same_seed_agrees_scene(file, &common::flat_scene(&common::scene(file), 32, 32));
+    same_seed_agrees_scene(file, &common::flat_scene(&common::scene(file), 32, 32), 1e-3);
 }
 
-/// [`same_seed_agrees`] on a scene already flattened for 32×32.
-fn same_seed_agrees_scene(file: &str, scene: &pathlight::scene::FlatScene) {
+/// [`same_seed_agrees`] on a scene already flattened for 32×32, pixels compared to
+/// `tolerance` relative (1e-3 for the reasons above; see the callers for larger ones).
+fn same_seed_agrees_scene(file: &str, scene: &pathlight::scene::FlatScene, tolerance: f32) {
     let Some(ctx) = common::gpu() else { return };
     let (size, spp) = (32, 16);
     let s = settings(size, spp, 9);
@@ -138,12 +139,12 @@ fn same_seed_agrees_scene(file: &str, scene: &pathlight::scene::FlatScene) {
         // 1e-3 relative: rounding differences of a few ulps per operation, accumulated over
         // a path of tens of operations per bounce, stay below 1e-4 in 99.7% of pixels.
         let scale = x.max_element().max(y.max_element()).max(1e-6);
-        if (x - y).abs().max_element() > 1e-3 * scale {
+        if (x - y).abs().max_element() > tolerance * scale {
             disagree.push((i % size as usize, i / size as usize, x, y));
         }
     }
     eprintln!(
-        "{file}: {} of {} pixels differ by more than 1e-3 with the same seed",
+        "{file}: {} of {} pixels differ by more than {tolerance:e} with the same seed",
         disagree.len(),
         size * size
     );
@@ -385,5 +386,173 @@ fn hdr_environment_gpu_matches_cpu() {
 
 #[test]
 fn hdr_environment_same_seed_agrees() {
-    same_seed_agrees_scene("env-objects-garden", &environment_scene());
+    same_seed_agrees_scene("env-objects-garden", &environment_scene(), 1e-3);
+}
+
+/// A 4×3 RGBA image of distinct colours, PNG-encoded as a data URI.
+fn png_data_uri() -> String {
+    use base64::Engine;
+    let mut rgba = Vec::new();
+    for j in 0..3u8 {
+        for i in 0..4u8 {
+            rgba.extend_from_slice(&[40 + 60 * i, 30 + 90 * j, 200 - 50 * i, 255 - 40 * j]);
+        }
+    }
+    let mut bytes = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut bytes, 4, 3);
+        encoder.set_color(png::ColorType::Rgba);
+        encoder.set_depth(png::BitDepth::Eight);
+        let mut writer = encoder.write_header().unwrap();
+        writer.write_image_data(&rgba).unwrap();
+    }
+    format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes))
+}
+
+/// Three textured quads side by side, each with another sampler: REPEAT + bilinear,
+/// CLAMP_TO_EDGE + nearest, MIRRORED_REPEAT + bilinear reading UV set 1 through a
+/// KHR_texture_transform. UVs run well outside [0, 1] so every wrap mode is exercised.
+fn wrap_mode_scene() -> pathlight::scene::FlatScene {
+    use base64::Engine;
+    use serde_json::json;
+    let mut positions: Vec<f32> = Vec::new();
+    let mut uv0: Vec<f32> = Vec::new();
+    let mut uv1: Vec<f32> = Vec::new();
+    for q in 0..3 {
+        let x0 = -1.6 + q as f32 * 1.1;
+        for (x, y) in [(x0, -0.5), (x0 + 1.0, -0.5), (x0 + 1.0, 0.5), (x0, 0.5)] {
+            positions.extend_from_slice(&[x, y, 0.0]);
+        }
+        uv0.extend_from_slice(&[-1.3, 2.2, 2.1, 2.2, 2.1, -0.9, -1.3, -0.9]);
+        uv1.extend_from_slice(&[-0.6, 1.7, 1.9, 1.7, 1.9, -1.2, -0.6, -1.2]);
+    }
+    let indices: Vec<u32> = (0..3).flat_map(|q| [0, 1, 2, 0, 2, 3].map(|i| 4 * q + i)).collect();
+    let mut bin: Vec<u8> = Vec::new();
+    for v in positions.iter().chain(&uv0).chain(&uv1) {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    for i in &indices {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let (np, nuv) = (positions.len() * 4, uv0.len() * 4);
+    let material = |texture: usize, extra: serde_json::Value| {
+        let mut info = json!({"index": texture});
+        if !extra.is_null() {
+            info = extra;
+        }
+        json!({"pbrMetallicRoughness": {"baseColorTexture": info, "metallicFactor": 0.0, "roughnessFactor": 1.0}})
+    };
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_texture_transform"],
+        "scenes": [{"nodes": [0, 1, 2]}],
+        "nodes": [{"mesh": 0}, {"mesh": 1}, {"mesh": 2}],
+        "meshes": (0..3).map(|q| json!({"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1, "TEXCOORD_1": 2}, "indices": 3 + q, "material": q}]})).collect::<Vec<_>>(),
+        "materials": [
+            material(0, serde_json::Value::Null),
+            material(1, serde_json::Value::Null),
+            material(2, json!({"index": 2, "texCoord": 0, "extensions": {"KHR_texture_transform": {"texCoord": 1, "offset": [0.3, -0.2], "rotation": 0.7, "scale": [1.5, 0.8]}}})),
+        ],
+        "samplers": [
+            {"wrapS": 10497, "wrapT": 10497, "magFilter": 9729},
+            {"wrapS": 33071, "wrapT": 33071, "magFilter": 9728},
+            {"wrapS": 33648, "wrapT": 33648, "magFilter": 9729}
+        ],
+        "images": [{"uri": png_data_uri()}],
+        "textures": [{"source": 0, "sampler": 0}, {"source": 0, "sampler": 1}, {"source": 0, "sampler": 2}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 12, "type": "VEC3", "min": [-1.6, -0.5, 0.0], "max": [1.6, 0.5, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 12, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5126, "count": 12, "type": "VEC2"},
+            {"bufferView": 3, "byteOffset": 0, "componentType": 5125, "count": 6, "type": "SCALAR"},
+            {"bufferView": 3, "byteOffset": 24, "componentType": 5125, "count": 6, "type": "SCALAR"},
+            {"bufferView": 3, "byteOffset": 48, "componentType": 5125, "count": 6, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": np},
+            {"buffer": 0, "byteOffset": np, "byteLength": nuv},
+            {"buffer": 0, "byteOffset": np + nuv, "byteLength": nuv},
+            {"buffer": 0, "byteOffset": np + 2 * nuv, "byteLength": indices.len() * 4}
+        ],
+        "buffers": [{"byteLength": bin.len(), "uri": format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bin))}]
+    });
+    let path = std::env::temp_dir().join(format!("pathlight-wrap-{}.gltf", std::process::id()));
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let (scene, _) = pathlight::scene::load(&path).unwrap();
+    let _ = std::fs::remove_file(&path);
+    pathlight::scene::FlatScene::build(&scene, &pathlight::scene::ViewSettings { camera: None, aspect: 1.0 })
+        .unwrap()
+}
+
+/// Textured scenes: the wrap-mode scene, and the Khronos models (when the assets are there).
+fn textured_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
+    let mut out = vec![("wrap-modes".to_string(), wrap_mode_scene())];
+    if let Some(assets) = common::assets() {
+        for model in [
+            "TextureTransformTest/TextureTransformTest.gltf",
+            "DamagedHelmet/DamagedHelmet.glb",
+            "AlphaBlendModeTest/AlphaBlendModeTest.glb",
+            "ClearCoatTest/ClearCoatTest.glb",
+        ] {
+            let (mut scene, _) = pathlight::scene::load(&assets.join("khronos").join(model)).unwrap();
+            scene.environment = Some(
+                pathlight::light::EnvironmentDesc::load(&assets.join("env/studio_small_05_1k.hdr")).unwrap(),
+            );
+            let view = pathlight::scene::ViewSettings { camera: None, aspect: 1.0 };
+            out.push((
+                model.split('/').next().unwrap().to_string(),
+                pathlight::scene::FlatScene::build(&scene, &view).unwrap(),
+            ));
+        }
+    }
+    out
+}
+
+/// Both backends read the same texels with the same filter: the textured base colour seen by
+/// each camera ray (the first-hit AOV) agrees between them, pixel by pixel.
+#[test]
+fn texture_lookups_agree() {
+    let Some(ctx) = common::gpu() else { return };
+    let size = 64;
+    for (name, scene) in textured_scenes() {
+        assert!(scene.features.textures, "{name} is textured");
+        let mut gpu = GpuBackend::new(ctx.clone(), &scene, &settings(size, 1, 3)).unwrap();
+        let gpu_hits = gpu.first_hits().unwrap();
+        let (mut compared, mut ties) = (0, 0);
+        for y in 0..size {
+            for x in 0..size {
+                let g = &gpu_hits[(y * size + x) as usize];
+                let c = pathlight::cpu::first_hit(&scene, size, size, x, y, 3);
+                if g.triangle != c.triangle {
+                    ties += 1;
+                    continue;
+                }
+                if c.triangle == u32::MAX {
+                    continue;
+                }
+                // Same texels, same bilinear weights, up to a few ulps of the hit point (and so
+                // of the UV) and of the sRGB curve's pow. Across a sharp texel edge a UV
+                // shift of 1e-7 moves a value by up to (texels per UV) × (edge contrast)
+                // × 1e-7 ≈ 1e-4 for 1k textures: 1e-3 absolute bounds that, while a wrong
+                // texel, wrap mode or transfer curve is off by 1e-2 or more.
+                let d = (Vec3::from(g.albedo) - Vec3::from(c.albedo)).abs().max_element();
+                assert!(d <= 1e-3, "{name} ({x},{y}): albedo {:?} (GPU) vs {:?} (CPU)", g.albedo, c.albedo);
+                compared += 1;
+            }
+        }
+        eprintln!("{name}: {compared} textured first hits agree, {ties} edge ties");
+        assert!(compared > 200, "{name}: too few pixels see the model");
+        assert!(ties * 200 <= size * size, "{name}: {ties} pixels hit different triangles");
+    }
+}
+
+#[test]
+fn textured_models_gpu_match_cpu() {
+    for (name, scene) in textured_scenes() {
+        gpu_matches_cpu_scene(&name, &scene, 32, 64);
+        // DamagedHelmet's polished metal (GGX α down to 1e-4) once disagreed in 7% of pixels
+        // here, by up to 20%: D's textbook denominator cancelled in f32 and the GPU's fused
+        // multiply-add rounded it differently (fixed in `ggx_d`). The ordinary bound holds.
+        same_seed_agrees_scene(&name, &scene, 1e-3);
+    }
 }

@@ -5,12 +5,20 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// GGX normal distribution D(m) for isotropic α (Walter et al. 2007, eq. 33).
+///
+/// The denominator's cos²θ(α² − 1) + 1 is written as sin²θ + α²cos²θ = m.x² + m.y² + α²m.z²:
+/// for a near-mirror lobe (α² ≈ 1e-8) the textbook form cancels catastrophically in f32
+/// (ε ≈ 6e-8) near the lobe's peak, where it decides everything, and a fused multiply-add on
+/// the GPU rounded it differently from the CPU (up to 20% per pixel on DamagedHelmet).
 pub fn ggx_d(m: Vec3, alpha: f32) -> f32 {
     if m.z <= 0.0 {
         return 0.0;
     }
     let a2 = alpha * alpha;
-    let d = m.z * m.z * (a2 - 1.0) + 1.0;
+    let d = m.x * m.x + m.y * m.y + a2 * (m.z * m.z);
+    if d <= 0.0 {
+        return 0.0;
+    }
     a2 / (PI * d * d)
 }
 
@@ -66,4 +74,27 @@ pub fn sample_visible_normal(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     let h = c + wi_std;
     // Unstretch.
     Vec3::new(h.x * alpha, h.y * alpha, h.z.max(0.0)).normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Near the peak of a near-mirror lobe, D in f32 must match an f64 evaluation. The
+    /// textbook cos²θ(α² − 1) + 1 rounds cos²θ to 1 within ~2e-4 rad of the peak and was off
+    /// by up to 100% there.
+    #[test]
+    fn ggx_d_is_accurate_for_near_mirror_lobes() {
+        let alpha = 1e-4f32;
+        for k in 0..200 {
+            let theta = k as f64 * 2e-6;
+            let m = Vec3::new(theta.sin() as f32, 0.0, theta.cos() as f32);
+            let a2 = (alpha as f64).powi(2);
+            let (s, c) = (m.x as f64, m.z as f64);
+            let reference = a2 / (std::f64::consts::PI * (s * s + a2 * c * c).powi(2));
+            let got = ggx_d(m, alpha) as f64;
+            // f32 rounding of a handful of operations: 1e-5 relative.
+            assert!((got - reference).abs() <= 1e-5 * reference, "θ = {theta:e}: {got} vs {reference}");
+        }
+    }
 }

@@ -9,7 +9,7 @@
 //! `max_depth` = D allows paths with at most D scattering events: D = 0 renders only
 //! emitters seen directly, D = 1 direct lighting.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::bsdf::GltfBsdf;
 use crate::bvh::{intersect_any, intersect_closest, ClosestHit};
@@ -18,7 +18,9 @@ use crate::light::{environment_lookup, sample_light, triangle_light_pdf};
 use crate::sampling::{power_heuristic, Rng};
 use crate::scene::layout::{
     FirstHit, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, TRIANGLE_HAS_NORMALS,
+    TRIANGLE_HAS_TANGENTS,
 };
+use crate::scene::texture::textured_material;
 use crate::scene::{oct_decode, FlatScene};
 
 /// A hard stop against runaway paths (e.g. a non-finite throughput that defeats Russian
@@ -63,6 +65,8 @@ pub struct SurfaceInteraction {
     pub emitter: u32,
     /// Distance along the ray (unit direction).
     pub distance: f32,
+    /// UV sets 0 and 1 at the hit (zero without textures).
+    pub uv: (Vec2, Vec2),
 }
 
 /// Builds the interaction for `hit` of `ray` (`ray.direction` unit length).
@@ -76,23 +80,47 @@ pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> Su
     let wo_world = -ray.direction;
     let front_face = wo_world.dot(n_geometric) > 0.0;
     let ng_facing = if front_face { n_geometric } else { -n_geometric };
-    let mut ns = ng_facing;
+    let b = Vec3::new(h.b0, h.b1, h.b2);
+    let textures = scene.texture_arrays();
+    let uv = textures.uv(hit.triangle, b);
+    // The shading normal on the geometric front side: interpolated vertex normals, then the
+    // normal map in their tangent frame (glTF 2.0 §3.9.3: n = T·x + B·y + N·z with
+    // B = (N × T)·w, the map's x and y scaled by normalTexture.scale).
+    let mut n_front = n_geometric;
     if tri.flags & TRIANGLE_HAS_NORMALS != 0 {
         let n = &scene.normals[hit.triangle as usize];
         let interpolated = h.b0 * oct_decode(n.n0) + h.b1 * oct_decode(n.n1) + h.b2 * oct_decode(n.n2);
-        if let Some(mut s) = interpolated.try_normalize() {
-            // Put the shading normal on the geometric normal's side (the file's normals may
-            // disagree with its winding) ...
-            if s.dot(ng_facing) < 0.0 {
-                s = -s;
-            }
-            // ... and fall back to the geometric normal where interpolation would put the
-            // viewer below the shading hemisphere (silhouettes of coarse meshes).
-            if s.dot(wo_world) > 0.0 {
-                ns = s;
+        if let Some(s) = interpolated.try_normalize() {
+            // The file's normals may disagree with its winding: put them on the front side.
+            n_front = if s.dot(n_geometric) < 0.0 { -s } else { s };
+        }
+    }
+    let mut n_mapped = n_front;
+    if tri.flags & TRIANGLE_HAS_TANGENTS != 0 {
+        let material = &scene.materials[tri.material as usize];
+        if let Some(texel) = textures.lookup(material.normal_texture, uv, false) {
+            let t = &scene.tangents[hit.triangle as usize];
+            let tangent = h.b0 * oct_decode(t.t0) + h.b1 * oct_decode(t.t1) + h.b2 * oct_decode(t.t2);
+            let sign = if t.signs & 1 != 0 { -1.0 } else { 1.0 };
+            // Gram–Schmidt: the interpolated tangent is only nearly orthogonal to N.
+            if let Some(tangent) = (tangent - n_front * n_front.dot(tangent)).try_normalize() {
+                let bitangent = n_front.cross(tangent) * sign;
+                let m = texel.truncate() * 2.0 - Vec3::ONE;
+                let scale = material.normal_scale;
+                let mapped = tangent * (m.x * scale) + bitangent * (m.y * scale) + n_front * m.z;
+                if let Some(mapped) = mapped.try_normalize() {
+                    n_mapped = if mapped.dot(n_geometric) < 0.0 { n_front } else { mapped };
+                }
             }
         }
     }
+    // Face the incoming ray, and fall back where the shading normal would put the viewer
+    // below its hemisphere (silhouettes of coarse meshes, steep normal-map texels): first to
+    // the interpolated normal, then to the geometric one. This is the usual shading-normal
+    // guard (Veach 1997 §5.3 discusses why such normals are asymmetric), not a microfacet
+    // normal-mapping model (Schüßler et al. 2017).
+    let flip = |n: Vec3| if front_face { n } else { -n };
+    let ns = [flip(n_mapped), flip(n_front)].into_iter().find(|n| n.dot(wo_world) > 0.0).unwrap_or(ng_facing);
     let frame = Frame::from_z(ns);
     SurfaceInteraction {
         p,
@@ -104,6 +132,7 @@ pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> Su
         material: tri.material,
         emitter: tri.emitter,
         distance: h.t,
+        uv,
     }
 }
 
@@ -139,7 +168,8 @@ pub fn radiance(
             break;
         };
         let si = surface_interaction(scene, &ray, &hit);
-        let material = &scene.materials[si.material as usize];
+        let material =
+            &textured_material(&scene.materials[si.material as usize], &scene.texture_arrays(), si.uv);
 
         // Beer–Lambert absorption inside a refracting solid: a ray reaching a back face has
         // travelled through the medium (closed, outward-facing meshes, as KHR_materials_volume
@@ -230,7 +260,12 @@ pub fn first_hit(scene: &FlatScene, width: u32, height: u32, x: u32, y: u32, see
             FirstHit {
                 normal: si.frame.z.to_array(),
                 distance: si.distance,
-                albedo: scene.materials[si.material as usize].base_color,
+                albedo: textured_material(
+                    &scene.materials[si.material as usize],
+                    &scene.texture_arrays(),
+                    si.uv,
+                )
+                .base_color,
                 triangle: hit.triangle,
             }
         }

@@ -164,6 +164,11 @@ impl GpuContext {
                 storage(10, true),
                 storage(11, true),
                 storage(12, true),
+                storage(13, true),
+                storage(14, true),
+                storage(15, true),
+                storage(16, true),
+                storage(17, true),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

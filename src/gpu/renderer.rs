@@ -102,6 +102,23 @@ impl GpuBackend {
         let env_cdf = if env.cdf.is_empty() { vec![0.0f32] } else { env.cdf.clone() };
         let environment_texels = storage("environment texels", bytemuck::cast_slice(&env_texels), read_only)?;
         let environment_cdf = storage("environment distribution", bytemuck::cast_slice(&env_cdf), read_only)?;
+        // Textures: one unused element of each where a scene has none.
+        fn or_one<T: bytemuck::Pod + Default>(v: &[T]) -> Vec<T> {
+            if v.is_empty() {
+                vec![T::default()]
+            } else {
+                v.to_vec()
+            }
+        }
+        let texels =
+            storage("texel buffer", bytemuck::cast_slice(&or_one(&scene.textures.texels)), read_only)?;
+        let texture_infos =
+            storage("texture descriptors", bytemuck::cast_slice(&or_one(&scene.textures.infos)), read_only)?;
+        let texture_bindings =
+            storage("texture bindings", bytemuck::cast_slice(&or_one(&scene.texture_bindings)), read_only)?;
+        let texcoords =
+            storage("texture coordinates", bytemuck::cast_slice(&or_one(&scene.texcoords)), read_only)?;
+        let tangents = storage("tangents", bytemuck::cast_slice(&or_one(&scene.tangents)), read_only)?;
         let pixels = settings.width as u64 * settings.height as u64;
         let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let zeroed = |what: &str, bytes: u64| -> Result<wgpu::Buffer> {
@@ -144,6 +161,11 @@ impl GpuBackend {
             &environment,
             &environment_texels,
             &environment_cdf,
+            &texels,
+            &texture_infos,
+            &texture_bindings,
+            &texcoords,
+            &tangents,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()

@@ -29,6 +29,8 @@ pub struct LightArrays<'a> {
     pub environment: &'a Environment,
     pub environment_texels: &'a [[f32; 4]],
     pub environment_cdf: &'a [f32],
+    /// For emissive textures.
+    pub textures: crate::scene::texture::TextureArrays<'a>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -120,7 +122,12 @@ pub fn sample_light(
             let q_off = offset_ray_origin(q, q_error, n_light, -wi);
             Some(LightSample {
                 wi,
-                radiance: Vec3::from(material.emission),
+                radiance: crate::scene::texture::emitted_radiance(
+                    &arrays.textures,
+                    material,
+                    light.triangle as usize,
+                    b,
+                ),
                 pdf,
                 is_delta: false,
                 shadow_ray: spawn_ray_to(p, p_error, n_geometric, q_off),

@@ -240,3 +240,46 @@ pub fn read_indices(
     let raw = read_raw(buffers, accessor, &format!("{what} (accessor {})", accessor.index()))?;
     Ok(raw.chunks_exact(size).map(|c| read_uint(t, c)).collect())
 }
+
+/// Reads a VEC2 or VEC4 accessor as f32s: FLOAT, or normalized UNSIGNED_BYTE/SHORT (as glTF
+/// allows for TEXCOORD_n). `dims` is 2 or 4.
+pub fn read_floats(
+    buffers: &[Vec<u8>],
+    accessor: &gltf::Accessor,
+    what: &str,
+    dims: Dimensions,
+) -> std::result::Result<Vec<f32>, String> {
+    let t = accessor.data_type();
+    let ok_type = match t {
+        DataType::F32 => true,
+        DataType::U8 | DataType::U16 => accessor.normalized(),
+        _ => false,
+    };
+    if accessor.dimensions() != dims || !ok_type {
+        return Err(format!(
+            "{what} (accessor {}) is {:?} {:?}{}; expected {dims:?} of FLOAT or normalized unsigned byte/short",
+            accessor.index(),
+            t,
+            accessor.dimensions(),
+            if accessor.normalized() { " normalized" } else { "" }
+        ));
+    }
+    let raw = read_raw(buffers, accessor, &format!("{what} (accessor {})", accessor.index()))?;
+    let size = component_size(t);
+    let values: Vec<f32> = raw
+        .chunks_exact(size)
+        .map(|c| match t {
+            DataType::U8 => c[0] as f32 / 255.0,
+            DataType::U16 => u16::from_le_bytes([c[0], c[1]]) as f32 / 65535.0,
+            _ => read_f32(c),
+        })
+        .collect();
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(format!(
+            "{what} (accessor {}) element {} is not finite",
+            accessor.index(),
+            i / dims.multiplicity()
+        ));
+    }
+    Ok(values)
+}

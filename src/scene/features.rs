@@ -24,6 +24,10 @@ pub struct SceneFeatures {
     pub directional_lights: bool,
     /// An environment light (a map or a constant background).
     pub environment: bool,
+    /// Some material reads a texture.
+    pub textures: bool,
+    /// Some triangle is normal-mapped.
+    pub normal_maps: bool,
 }
 
 impl SceneFeatures {
@@ -37,6 +41,8 @@ impl SceneFeatures {
         spot_lights: true,
         directional_lights: true,
         environment: true,
+        textures: true,
+        normal_maps: true,
     };
 
     /// The features of `materials[i]` for every `i` in `used_materials`, and of `lights`.
@@ -69,7 +75,7 @@ impl SceneFeatures {
     }
 
     /// `(WGSL override name, value)` for each feature, as the kernel declares them.
-    pub fn pipeline_constants(&self) -> [(&'static str, bool); 8] {
+    pub fn pipeline_constants(&self) -> [(&'static str, bool); 10] {
         [
             ("FEATURE_SPECULAR", self.specular),
             ("FEATURE_TRANSMISSION", self.transmission),
@@ -79,6 +85,8 @@ impl SceneFeatures {
             ("FEATURE_SPOT_LIGHTS", self.spot_lights),
             ("FEATURE_DIRECTIONAL_LIGHTS", self.directional_lights),
             ("FEATURE_ENVIRONMENT", self.environment),
+            ("FEATURE_TEXTURES", self.textures),
+            ("FEATURE_NORMAL_MAPS", self.normal_maps),
         ]
     }
 

@@ -1,16 +1,19 @@
 //! [`FlatScene`]: the scene as both backends render it — camera-relative f32 arrays, the
 //! flattened BVH, and the light table.
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
+use super::texture::{emitted_radiance, FlatTextures, TextureArrays};
 use super::{oct_encode, CameraDesc, PunctualKind, Scene, SceneFeatures};
 use crate::bvh::{self, BvhStats};
 use crate::error::{Error, Result};
 use crate::light::{triangle_normal_area, EnvironmentDesc, FlatEnvironment};
 use crate::sampling::build_alias_table;
+use crate::sampling::sample_uniform_triangle;
 use crate::scene::layout::{
-    self, BvhNode, Light, Triangle, TriangleNormals, INVALID_INDEX, LIGHT_DIRECTIONAL, LIGHT_ENVIRONMENT,
-    LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, TRIANGLE_HAS_NORMALS,
+    self, BvhNode, Light, TextureBinding, Triangle, TriangleNormals, TriangleTangents, TriangleTexcoords,
+    INVALID_INDEX, LIGHT_DIRECTIONAL, LIGHT_ENVIRONMENT, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE,
+    MATERIAL_DOUBLE_SIDED, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS,
 };
 
 /// Which camera to render through, and the image's shape.
@@ -43,6 +46,13 @@ pub struct FlatScene {
     /// The scene has no light of its own and no environment was given, so it is lit by
     /// [`DEFAULT_BACKGROUND`] rather than rendered black; callers should say so.
     pub default_environment: bool,
+    /// Texels and per-texture descriptors (empty without textures).
+    pub textures: FlatTextures,
+    /// How each material input reads its texture ([`layout::Material`]'s `*_texture`).
+    pub texture_bindings: Vec<TextureBinding>,
+    /// Per triangle in BVH order, when some material is textured; else empty.
+    pub texcoords: Vec<TriangleTexcoords>,
+    pub tangents: Vec<TriangleTangents>,
 }
 
 /// What lights a scene that has no light of its own and no `--env`/`--background`: a
@@ -79,20 +89,45 @@ impl FlatScene {
             scene.positions.chunks_exact(3).map(|t| [rel(t[0]), rel(t[1]), rel(t[2])]).collect();
         let bvh = bvh::build(&positions);
 
-        let materials: Vec<layout::Material> = scene.materials.iter().map(|m| m.to_gpu()).collect();
+        let textures = FlatTextures::build(&scene.images, &scene.textures);
+        let mut texture_bindings = Vec::new();
+        let usable = |t: usize| scene.textures.get(t).is_some_and(|t| t.image.is_some());
+        let materials: Vec<layout::Material> =
+            scene.materials.iter().map(|m| m.to_gpu(&mut texture_bindings, &usable)).collect();
+        let textured = |m: &layout::Material| {
+            [
+                m.base_color_texture,
+                m.metallic_roughness_texture,
+                m.normal_texture,
+                m.emissive_texture,
+                m.transmission_texture,
+                m.specular_texture,
+                m.specular_color_texture,
+            ]
+            .iter()
+            .any(|&t| t != INVALID_INDEX)
+        };
+        // Per-triangle UVs and tangents only when some triangle's material reads a texture.
+        let any_textured = scene.triangle_materials.iter().any(|&m| textured(&materials[m as usize]));
         let mut triangles = Vec::with_capacity(positions.len());
         let mut normals = Vec::with_capacity(positions.len());
+        let mut texcoords = Vec::new();
+        let mut tangents = Vec::new();
         for &src in &bvh.order {
             let src = src as usize;
             let [p0, p1, p2] = positions[src];
             let n = scene.normals[src];
+            let material = scene.triangle_materials[src];
+            let t = scene.tangents.get(src).copied().flatten();
+            let has_tangents = t.is_some() && materials[material as usize].normal_texture != INVALID_INDEX;
             triangles.push(Triangle {
                 p0: p0.to_array(),
-                material: scene.triangle_materials[src],
+                material,
                 p1: p1.to_array(),
                 emitter: INVALID_INDEX,
                 p2: p2.to_array(),
-                flags: if n.is_some() { TRIANGLE_HAS_NORMALS } else { 0 },
+                flags: if n.is_some() { TRIANGLE_HAS_NORMALS } else { 0 }
+                    | if has_tangents { TRIANGLE_HAS_TANGENTS } else { 0 },
             });
             normals.push(match n {
                 Some([n0, n1, n2]) => {
@@ -100,7 +135,29 @@ impl FlatScene {
                 }
                 None => TriangleNormals::default(),
             });
+            if any_textured {
+                let uv = scene.texcoords.get(src).copied().unwrap_or_default();
+                texcoords.push(TriangleTexcoords {
+                    uv0: uv[0].map(|v| v.to_array()),
+                    uv1: uv[1].map(|v| v.to_array()),
+                });
+                tangents.push(match t {
+                    Some([t0, t1, t2]) if has_tangents => TriangleTangents {
+                        t0: oct_encode(t0.truncate()),
+                        t1: oct_encode(t1.truncate()),
+                        t2: oct_encode(t2.truncate()),
+                        signs: (t0.w < 0.0) as u32 | ((t1.w < 0.0) as u32) << 1 | ((t2.w < 0.0) as u32) << 2,
+                    },
+                    _ => TriangleTangents::default(),
+                });
+            }
         }
+        let texture_arrays = TextureArrays {
+            texels: &textures.texels,
+            infos: &textures.infos,
+            bindings: &texture_bindings,
+            texcoords: &texcoords,
+        };
 
         let scene_radius = (0.5 * (bmax - bmin).length()).max(1e-6) as f32;
 
@@ -136,9 +193,26 @@ impl FlatScene {
             }
             let (_, area) = triangle_normal_area(tri);
             let sides = if m.flags & MATERIAL_DOUBLE_SIDED != 0 { 2.0 } else { 1.0 };
+            // An emissive texture shapes the emission: weight by its mean over the triangle
+            // (4×4 stratified points), so black texels draw no light samples. MIS stays
+            // consistent: a triangle that draws none is still counted when a path hits it.
+            let mean_luminance = if m.emissive_texture == INVALID_INDEX {
+                luminance(le) as f64
+            } else {
+                let mut sum = 0.0f64;
+                for k in 0..16 {
+                    let u = Vec2::new(((k % 4) as f32 + 0.5) / 4.0, ((k / 4) as f32 + 0.5) / 4.0);
+                    let b = sample_uniform_triangle(u);
+                    sum += luminance(emitted_radiance(&texture_arrays, m, i, b)) as f64;
+                }
+                sum / 16.0
+            };
+            if mean_luminance <= 0.0 {
+                continue;
+            }
             tri.emitter = lights.len() as u32;
             lights.push(Light { kind: LIGHT_TRIANGLE, triangle: i as u32, ..Default::default() });
-            powers.push(std::f64::consts::PI * area as f64 * luminance(le) as f64 * sides);
+            powers.push(std::f64::consts::PI * area as f64 * mean_luminance * sides);
         }
         for pl in &scene.lights {
             let intensity = pl.intensity;
@@ -192,6 +266,8 @@ impl FlatScene {
         }
         let mut features = SceneFeatures::detect(&materials, &used_materials, &lights);
         features.environment = environment.params.present != 0;
+        features.textures = any_textured;
+        features.normal_maps = triangles.iter().any(|t| t.flags & TRIANGLE_HAS_TANGENTS != 0);
         Ok(FlatScene {
             camera: camera_desc.to_gpu(view.aspect),
             nodes: bvh.nodes,
@@ -205,7 +281,21 @@ impl FlatScene {
             scene_radius,
             environment,
             default_environment,
+            textures,
+            texture_bindings,
+            texcoords,
+            tangents,
         })
+    }
+
+    /// The arrays a texture lookup reads.
+    pub fn texture_arrays(&self) -> TextureArrays<'_> {
+        TextureArrays {
+            texels: &self.textures.texels,
+            infos: &self.textures.infos,
+            bindings: &self.texture_bindings,
+            texcoords: &self.texcoords,
+        }
     }
 
     /// The arrays light sampling reads.
@@ -217,6 +307,7 @@ impl FlatScene {
             environment: &self.environment.params,
             environment_texels: &self.environment.texels,
             environment_cdf: &self.environment.cdf,
+            textures: self.texture_arrays(),
         }
     }
 }

@@ -9,11 +9,12 @@ use std::path::Path;
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
 use gltf::json::validation::Validate;
 
-use super::accessor::{load_buffers, read_indices, read_vec3, scene_folder};
+use super::accessor::{load_buffers, read_floats, read_indices, read_vec3, scene_folder};
 use super::camera::{CameraDesc, Projection};
 use super::light::{PunctualKind, PunctualLight};
 use super::material::{AlphaMode, MaterialDesc, TextureSlot};
-use super::uri::{resolve_uri, LoadOptions};
+use super::texture::{wrap_mode, ImageDesc, TextureDesc};
+use super::uri::{read_uri, LoadOptions};
 use super::{MeshTransform, Scene};
 use crate::error::{Error, Result};
 
@@ -126,28 +127,12 @@ fn load_unchecked(bytes: &[u8], file: &Path, options: &LoadOptions) -> Result<(S
     let raw_json = raw_json_value(bytes).map_err(|e| err(format!("cannot re-read the JSON: {e}")))?;
     let buffers = load_buffers(&gltf.document, gltf.blob.as_deref(), file, options)?;
     let doc = &gltf.document;
-    // Images are not decoded yet (textures come later), but a scene whose image URIs break
-    // the external-URI rule is refused now, as it will be then.
-    for image in doc.images() {
-        if let gltf::image::Source::Uri { uri, .. } = image.source() {
-            resolve_uri(uri, scene_folder(file), options)
-                .map_err(|m| err(format!("image {}: {m}", image.index())))?;
-        }
-    }
+    let (images, textures) = load_images_and_textures(doc, &buffers, file, options, &mut warnings)?;
 
-    let mut scene = Scene { source: file.to_path_buf(), ..Scene::default() };
+    let mut scene = Scene { source: file.to_path_buf(), images, textures, ..Scene::default() };
     scene.materials = doc.materials().map(|m| read_material(&m, file)).collect::<Result<_>>()?;
     let default_material = scene.materials.len() as u32;
     scene.materials.push(MaterialDesc::default());
-    let textured: Vec<&str> =
-        scene.materials.iter().filter(|m| m.uses_textures()).map(|m| m.name.as_str()).collect();
-    if !textured.is_empty() {
-        warnings.push(format!(
-            "textures are not rendered yet; {} material(s) use their factors only ({})",
-            textured.len(),
-            textured.iter().take(4).cloned().collect::<Vec<_>>().join(", ")
-        ));
-    }
     let alpha: Vec<&str> = scene
         .materials
         .iter()
@@ -251,6 +236,12 @@ fn load_unchecked(bytes: &[u8], file: &Path, options: &LoadOptions) -> Result<(S
     if stats.skipped_modes > 0 {
         warnings.push(format!("skipped {} point/line primitive(s)", stats.skipped_modes));
     }
+    if stats.generated_tangents > 0 {
+        warnings.push(format!(
+            "generated MikkTSpace tangents for {} primitive(s) with a normal texture and no TANGENT",
+            stats.generated_tangents
+        ));
+    }
     if stats.degenerate > 0 {
         warnings.push(format!("dropped {} zero-area triangle(s)", stats.degenerate));
     }
@@ -271,6 +262,8 @@ struct LoadStats {
     skipped_modes: usize,
     degenerate: usize,
     bad_normals: usize,
+    /// Primitives whose tangents MikkTSpace generated (a normal texture, no TANGENT).
+    generated_tangents: usize,
 }
 
 /// The JSON document as a generic value, for reading node transforms at full precision.
@@ -394,6 +387,56 @@ fn add_mesh(
         };
         let triangles = assemble_triangles(&indices, mode);
         let material = primitive.material().index().map(|i| i as u32).unwrap_or(default_material);
+        let read_set = |semantic: gltf::Semantic, name: &str, dims: gltf::accessor::Dimensions| {
+            primitive
+                .get(&semantic)
+                .map(|acc| {
+                    let v = read_floats(buffers, &acc, &format!("{what}: {name}"), dims).map_err(err)?;
+                    let n = dims.multiplicity();
+                    if v.len() != positions.len() * n {
+                        return Err(err(format!(
+                            "{what}: {name} has {} elements but POSITION has {}",
+                            v.len() / n,
+                            positions.len()
+                        )));
+                    }
+                    Ok(v)
+                })
+                .transpose()
+        };
+        use gltf::accessor::Dimensions;
+        let uv_sets = [
+            read_set(gltf::Semantic::TexCoords(0), "TEXCOORD_0", Dimensions::Vec2)?,
+            read_set(gltf::Semantic::TexCoords(1), "TEXCOORD_1", Dimensions::Vec2)?,
+        ];
+        let uv = |set: usize, v: u32| -> glam::Vec2 {
+            uv_sets[set]
+                .as_ref()
+                .map_or(glam::Vec2::ZERO, |s| glam::Vec2::new(s[2 * v as usize], s[2 * v as usize + 1]))
+        };
+        // Tangents only where a normal texture will read them: the file's, else MikkTSpace's
+        // (Mikkelsen 2008, the generator glTF 2.0 §3.7.2.1 names) on the normal texture's UVs.
+        let normal_slot = scene.materials.get(material as usize).and_then(|m| m.normal_texture.clone());
+        let object_tangents: Option<Vec<[glam::Vec4; 3]>> = match &normal_slot {
+            None => None,
+            Some(slot) => match read_set(gltf::Semantic::Tangents, "TANGENT", Dimensions::Vec4)? {
+                Some(t) => Some(
+                    triangles
+                        .iter()
+                        .map(|tri| {
+                            tri.map(|v| glam::Vec4::from_slice(&t[4 * v as usize..4 * v as usize + 4]))
+                        })
+                        .collect(),
+                ),
+                None if uv_sets[slot.tex_coord.min(1) as usize].is_some() => {
+                    stats.generated_tangents += 1;
+                    Some(mikktspace_tangents(&positions, normals.as_deref(), &triangles, |v| {
+                        uv(slot.tex_coord.min(1) as usize, v)
+                    }))
+                }
+                None => None,
+            },
+        };
 
         let world_positions: Vec<DVec3> = positions
             .iter()
@@ -402,7 +445,19 @@ fn add_mesh(
         let world_normals: Option<Vec<Option<Vec3>>> = normals.as_ref().map(|ns| {
             ns.iter().map(|n| transform.normal(DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64))).collect()
         });
-        for [a, b, c] in triangles {
+        for (k, &[a, b, c]) in triangles.iter().enumerate() {
+            let mut tangents = object_tangents.as_ref().map(|ts| {
+                ts[k].map(|tv| {
+                    let d = transform.vector(tv.truncate().as_dvec3()).normalize_or_zero().as_vec3();
+                    let w = if tv.w < 0.0 { -1.0 } else { 1.0 };
+                    d.extend(if transform.flips_winding { -w } else { w })
+                })
+            });
+            if transform.flips_winding {
+                if let Some(t) = tangents.as_mut() {
+                    t.swap(1, 2);
+                }
+            }
             let (a, b, c) = if transform.flips_winding { (a, c, b) } else { (a, b, c) };
             let p = [world_positions[a as usize], world_positions[b as usize], world_positions[c as usize]];
             if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() == 0.0 {
@@ -422,9 +477,136 @@ fn add_mesh(
             scene.positions.extend_from_slice(&p);
             scene.normals.push(n);
             scene.triangle_materials.push(material);
+            scene.texcoords.push([[uv(0, a), uv(0, b), uv(0, c)], [uv(1, a), uv(1, b), uv(1, c)]]);
+            scene.tangents.push(tangents.filter(|t| t.iter().all(|v| v.truncate().length_squared() > 0.0)));
         }
     }
     Ok(())
+}
+
+/// MikkTSpace tangents (object space, sign in w) for each triangle's three corners.
+fn mikktspace_tangents(
+    positions: &[[f32; 3]],
+    normals: Option<&[[f32; 3]]>,
+    triangles: &[[u32; 3]],
+    uv: impl Fn(u32) -> glam::Vec2,
+) -> Vec<[glam::Vec4; 3]> {
+    struct Mesh<'a, F: Fn(u32) -> glam::Vec2> {
+        positions: &'a [[f32; 3]],
+        normals: Option<&'a [[f32; 3]]>,
+        triangles: &'a [[u32; 3]],
+        uv: F,
+        out: Vec<[glam::Vec4; 3]>,
+    }
+    impl<F: Fn(u32) -> glam::Vec2> bevy_mikktspace::Geometry for Mesh<'_, F> {
+        fn num_faces(&self) -> usize {
+            self.triangles.len()
+        }
+        fn num_vertices_of_face(&self, _face: usize) -> usize {
+            3
+        }
+        fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.positions[self.triangles[face][vert] as usize]
+        }
+        fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+            match self.normals {
+                Some(n) => n[self.triangles[face][vert] as usize],
+                None => {
+                    let p = self.triangles[face].map(|v| glam::Vec3::from(self.positions[v as usize]));
+                    (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero().to_array()
+                }
+            }
+        }
+        fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+            (self.uv)(self.triangles[face][vert]).to_array()
+        }
+        fn set_tangent(
+            &mut self,
+            tangent_space: Option<bevy_mikktspace::TangentSpace>,
+            face: usize,
+            vert: usize,
+        ) {
+            if let Some(t) = tangent_space {
+                self.out[face][vert] = glam::Vec4::from(t.tangent_encoded());
+            }
+        }
+    }
+    let mut mesh =
+        Mesh { positions, normals, triangles, uv, out: vec![[glam::Vec4::ZERO; 3]; triangles.len()] };
+    // The crate's error type has no variants: generation cannot fail.
+    let _ = bevy_mikktspace::generate_tangents(&mut mesh);
+    mesh.out
+}
+
+/// Most texels per side accepted from a file (the texel array is bounded separately).
+const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// Decodes every image (PNG and JPEG; other formats are a warning naming the texture, and
+/// inputs reading it fall back to their factor) and reads every texture's sampler.
+fn load_images_and_textures(
+    doc: &gltf::Document,
+    buffers: &[Vec<u8>],
+    file: &Path,
+    options: &LoadOptions,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<ImageDesc>, Vec<TextureDesc>)> {
+    let err = |m: String| Error::scene(file, m);
+    let mut images = Vec::new();
+    let mut decoded: Vec<Option<usize>> = Vec::new();
+    for image in doc.images() {
+        let i = image.index();
+        let name = image.name().map(|n| format!("image {i} '{n}'")).unwrap_or_else(|| format!("image {i}"));
+        let (bytes, mime) = match image.source() {
+            gltf::image::Source::Uri { uri, mime_type } => (
+                read_uri(uri, scene_folder(file), options).map_err(|m| err(format!("{name}: {m}")))?,
+                mime_type.map(str::to_owned),
+            ),
+            gltf::image::Source::View { view, mime_type } => {
+                let buffer = &buffers[view.buffer().index()];
+                let bytes = view
+                    .offset()
+                    .checked_add(view.length())
+                    .filter(|end| *end <= buffer.len())
+                    .map(|end| buffer[view.offset()..end].to_vec())
+                    .ok_or_else(|| {
+                        err(format!("{name}: buffer view {} lies outside its buffer", view.index()))
+                    })?;
+                (bytes, Some(mime_type.to_owned()))
+            }
+        };
+        let format = match image::guess_format(&bytes) {
+            Ok(f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg)) => f,
+            _ => {
+                warnings.push(format!(
+                    "{name} ({}) is not PNG or JPEG, which pathlight decodes; textures using it are ignored",
+                    mime.unwrap_or_else(|| "unknown type".into())
+                ));
+                decoded.push(None);
+                continue;
+            }
+        };
+        let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), format);
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_IMAGE_SIDE);
+        limits.max_image_height = Some(MAX_IMAGE_SIDE);
+        reader.limits(limits);
+        let rgba = reader.decode().map_err(|e| err(format!("{name}: cannot decode: {e}")))?.to_rgba8();
+        decoded.push(Some(images.len()));
+        images.push(ImageDesc { name, width: rgba.width(), height: rgba.height(), rgba8: rgba.into_raw() });
+    }
+    let textures = doc
+        .textures()
+        .map(|t| {
+            let sampler = t.sampler();
+            TextureDesc {
+                image: decoded.get(t.source().index()).copied().flatten(),
+                wrap_s: wrap_mode(sampler.wrap_s()),
+                wrap_t: wrap_mode(sampler.wrap_t()),
+                nearest: sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+            }
+        })
+        .collect();
+    Ok((images, textures))
 }
 
 /// Triangle vertex indices of a primitive, strips and fans expanded as glTF 2.0 §3.7.2.1
@@ -443,7 +625,21 @@ fn assemble_triangles(indices: &[u32], mode: gltf::mesh::Mode) -> Vec<[u32; 3]> 
 }
 
 fn slot(info: Option<gltf::texture::Info>) -> Option<TextureSlot> {
-    info.map(|i| TextureSlot { texture: i.texture().index(), tex_coord: i.tex_coord() })
+    info.map(|i| {
+        let (tex_coord, transform) = match i.texture_transform() {
+            Some(t) => {
+                let sane = |v: f32, default: f32| if v.is_finite() { v } else { default };
+                let offset = t.offset().map(|v| sane(v, 0.0));
+                let scale = t.scale().map(|v| sane(v, 1.0));
+                (
+                    t.tex_coord().unwrap_or(i.tex_coord()),
+                    TextureSlot::transform_from(offset, sane(t.rotation(), 0.0), scale),
+                )
+            }
+            None => (i.tex_coord(), TextureSlot::IDENTITY),
+        };
+        TextureSlot { texture: i.texture().index(), tex_coord, transform }
+    })
 }
 
 fn read_material(m: &gltf::Material, file: &Path) -> Result<MaterialDesc> {
@@ -473,12 +669,19 @@ fn read_material(m: &gltf::Material, file: &Path) -> Result<MaterialDesc> {
         },
         base_color_texture: slot(pbr.base_color_texture()),
         metallic_roughness_texture: slot(pbr.metallic_roughness_texture()),
-        normal_texture: m
-            .normal_texture()
-            .map(|t| TextureSlot { texture: t.texture().index(), tex_coord: t.tex_coord() }),
-        occlusion_texture: m
-            .occlusion_texture()
-            .map(|t| TextureSlot { texture: t.texture().index(), tex_coord: t.tex_coord() }),
+        // normalTexture and occlusionTexture are not textureInfo in the gltf crate, and it
+        // reads no KHR_texture_transform on them; their UVs are used as they are.
+        normal_texture: m.normal_texture().map(|t| TextureSlot {
+            texture: t.texture().index(),
+            tex_coord: t.tex_coord(),
+            transform: TextureSlot::IDENTITY,
+        }),
+        normal_scale: m.normal_texture().map(|t| t.scale()).filter(|s| s.is_finite()).unwrap_or(1.0),
+        occlusion_texture: m.occlusion_texture().map(|t| TextureSlot {
+            texture: t.texture().index(),
+            tex_coord: t.tex_coord(),
+            transform: TextureSlot::IDENTITY,
+        }),
         emissive_texture: slot(m.emissive_texture()),
         ..MaterialDesc::default()
     };

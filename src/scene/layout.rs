@@ -92,6 +92,8 @@ gpu_struct! {
 
 /// [`Triangle::flags`] bit: the triangle carries per-vertex shading normals.
 pub const TRIANGLE_HAS_NORMALS: u32 = 1;
+/// [`Triangle::flags`] bit: the triangle carries per-vertex tangents (normal mapping).
+pub const TRIANGLE_HAS_TANGENTS: u32 = 2;
 
 gpu_struct! {
     /// Per-vertex shading normals of one triangle (same order as [`Triangle`]), each
@@ -106,7 +108,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A material reduced to what the kernels evaluate, 80 bytes. See `src/bsdf/gltf.rs` for
+    /// A material reduced to what the kernels evaluate, 112 bytes. See `src/bsdf/gltf.rs` for
     /// how each field enters the glTF BSDF.
     pub struct Material {
         /// Linear base colour.
@@ -131,7 +133,69 @@ gpu_struct! {
         pub alpha_roughness: f32,
         /// KHR_materials_transmission `transmissionFactor`.
         pub transmission: f32,
-        pub _pad0: f32,
+        /// glTF `roughnessFactor` (a metallic-roughness texture scales it before
+        /// `alpha_from_roughness`).
+        pub roughness: f32,
+        /// Texture inputs: indices into the [`TextureBinding`] array, or [`INVALID_INDEX`].
+        pub base_color_texture: u32,
+        pub metallic_roughness_texture: u32,
+        pub normal_texture: u32,
+        pub emissive_texture: u32,
+        pub transmission_texture: u32,
+        pub specular_texture: u32,
+        pub specular_color_texture: u32,
+        /// glTF `normalTexture.scale`.
+        pub normal_scale: f32,
+    }
+}
+
+gpu_struct! {
+    /// One image in the texel array: `width × height` RGBA8 texels (one `u32` each, R in the
+    /// low byte) from `offset`, row 0 at the top (glTF UV (0, 0)), 16 bytes.
+    pub struct TextureInfo {
+        pub offset: u32,
+        pub width: u32,
+        pub height: u32,
+        /// Bits 0–1: wrap S, bits 2–3: wrap T (`WRAP_*`); [`TEXTURE_NEAREST`].
+        pub flags: u32,
+    }
+}
+
+pub const WRAP_REPEAT: u32 = 0;
+pub const WRAP_CLAMP_TO_EDGE: u32 = 1;
+pub const WRAP_MIRRORED_REPEAT: u32 = 2;
+/// [`TextureInfo::flags`] bit: nearest-texel magnification (glTF `magFilter` NEAREST).
+pub const TEXTURE_NEAREST: u32 = 16;
+
+gpu_struct! {
+    /// How a material input reads a texture (glTF `textureInfo` + KHR_texture_transform),
+    /// 32 bytes: uv' = (row0 · (u, v, 1), row1 · (u, v, 1)).
+    pub struct TextureBinding {
+        pub row0: [f32; 3],
+        /// Index into the [`TextureInfo`] array.
+        pub texture: u32,
+        pub row1: [f32; 3],
+        /// Which UV set: 0 or 1.
+        pub tex_coord: u32,
+    }
+}
+
+gpu_struct! {
+    /// Per-vertex texture coordinates of one triangle (sets 0 and 1), 48 bytes.
+    pub struct TriangleTexcoords {
+        pub uv0: [[f32; 2]; 3],
+        pub uv1: [[f32; 2]; 3],
+    }
+}
+
+gpu_struct! {
+    /// Per-vertex tangents of one triangle, octahedron-encoded like [`TriangleNormals`];
+    /// bit k of `signs` set means vertex k's bitangent sign (glTF `TANGENT.w`) is −1.
+    pub struct TriangleTangents {
+        pub t0: u32,
+        pub t1: u32,
+        pub t2: u32,
+        pub signs: u32,
     }
 }
 
@@ -281,6 +345,10 @@ pub fn all_layouts() -> Vec<StructLayout> {
         entry::<Triangle>(),
         entry::<TriangleNormals>(),
         entry::<Material>(),
+        entry::<TextureInfo>(),
+        entry::<TextureBinding>(),
+        entry::<TriangleTexcoords>(),
+        entry::<TriangleTangents>(),
         entry::<Light>(),
         entry::<Camera>(),
         entry::<Environment>(),

@@ -6,14 +6,30 @@ use glam::Vec3;
 use crate::bsdf::alpha_from_roughness;
 use crate::scene::layout::{self, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
 
-/// A texture reference (glTF `textureInfo`). Textures are loaded by a later stage; the slot
-/// is kept so that the loader records everything the file asks for.
+/// A texture reference (glTF `textureInfo`, with KHR_texture_transform applied).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TextureSlot {
     /// Index into the glTF `textures` array.
     pub texture: usize,
-    /// Which `TEXCOORD_n` set it reads.
+    /// Which `TEXCOORD_n` set it reads (after KHR_texture_transform's override).
     pub tex_coord: u32,
+    /// KHR_texture_transform as two rows of an affine map: uv' = (row0 · (u, v, 1),
+    /// row1 · (u, v, 1)); the identity without the extension.
+    pub transform: [[f32; 3]; 2],
+}
+
+impl TextureSlot {
+    pub const IDENTITY: [[f32; 3]; 2] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+
+    /// KHR_texture_transform's matrix translation · rotation · scale. The rotation turns UVs
+    /// counter-clockwise as the extension's text says, in UV space whose v axis points down
+    /// the image: u' = cos·u + sin·v, v' = −sin·u + cos·v. (One copy of the extension's GLSL
+    /// sample has the opposite sign; the Khronos TextureTransformTest model, whose markers
+    /// say which way is right, and the sample viewers agree with this one.)
+    pub fn transform_from(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> [[f32; 3]; 2] {
+        let (s, c) = rotation.sin_cos();
+        [[c * scale[0], s * scale[1], offset[0]], [-s * scale[0], c * scale[1], offset[1]]]
+    }
 }
 
 /// How the glTF `alphaMode` asks for coverage to be treated.
@@ -34,6 +50,8 @@ pub struct MaterialDesc {
     pub roughness: f32,
     /// `emissiveFactor × KHR_materials_emissive_strength.emissiveStrength`.
     pub emission: Vec3,
+    /// glTF `normalTexture.scale`.
+    pub normal_scale: f32,
     pub double_sided: bool,
     pub alpha_mode: AlphaMode,
     /// KHR_materials_ior (1.5 when absent).
@@ -68,6 +86,7 @@ impl Default for MaterialDesc {
             metallic: 1.0,
             roughness: 1.0,
             emission: Vec3::ZERO,
+            normal_scale: 1.0,
             double_sided: false,
             alpha_mode: AlphaMode::Opaque,
             ior: 1.5,
@@ -112,6 +131,24 @@ impl MaterialDesc {
         .any(|t| t.is_some())
     }
 
+    /// The same material with every texture index shifted by `offset` (scenes merged).
+    pub fn with_texture_offset(&self, offset: usize) -> MaterialDesc {
+        let shift =
+            |t: &Option<TextureSlot>| t.clone().map(|t| TextureSlot { texture: t.texture + offset, ..t });
+        MaterialDesc {
+            base_color_texture: shift(&self.base_color_texture),
+            metallic_roughness_texture: shift(&self.metallic_roughness_texture),
+            normal_texture: shift(&self.normal_texture),
+            occlusion_texture: shift(&self.occlusion_texture),
+            emissive_texture: shift(&self.emissive_texture),
+            transmission_texture: shift(&self.transmission_texture),
+            specular_texture: shift(&self.specular_texture),
+            specular_color_texture: shift(&self.specular_color_texture),
+            thickness_texture: shift(&self.thickness_texture),
+            ..self.clone()
+        }
+    }
+
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
     }
@@ -122,8 +159,28 @@ impl MaterialDesc {
         self.thickness > 0.0 && self.transmission > 0.0
     }
 
-    /// The kernel's view of this material.
-    pub fn to_gpu(&self) -> layout::Material {
+    /// The kernel's view of this material. Each texture input becomes an entry of
+    /// `bindings`; `usable(texture)` says whether a glTF texture was decoded (an input whose
+    /// image could not be is left untextured: its factor alone).
+    pub fn to_gpu(
+        &self,
+        bindings: &mut Vec<layout::TextureBinding>,
+        usable: &dyn Fn(usize) -> bool,
+    ) -> layout::Material {
+        let mut bind = |slot: &Option<TextureSlot>| -> u32 {
+            match slot {
+                Some(t) if usable(t.texture) => {
+                    bindings.push(layout::TextureBinding {
+                        row0: t.transform[0],
+                        texture: t.texture as u32,
+                        row1: t.transform[1],
+                        tex_coord: t.tex_coord.min(1),
+                    });
+                    bindings.len() as u32 - 1
+                }
+                _ => layout::INVALID_INDEX,
+            }
+        };
         let ior = if self.ior == 0.0 { IOR_INFINITE_STANDIN } else { self.ior };
         // Beer–Lambert: transmittance over distance d is attenuationColor^(d / distance),
         // i.e. exp(−σₐ d) with σₐ = −ln(c) / distance (KHR_materials_volume). A colour of 0 is
@@ -153,7 +210,15 @@ impl MaterialDesc {
             metallic: self.metallic,
             alpha_roughness: alpha_from_roughness(self.roughness),
             transmission: self.transmission,
-            _pad0: 0.0,
+            roughness: self.roughness,
+            base_color_texture: bind(&self.base_color_texture),
+            metallic_roughness_texture: bind(&self.metallic_roughness_texture),
+            normal_texture: bind(&self.normal_texture),
+            emissive_texture: bind(&self.emissive_texture),
+            transmission_texture: bind(&self.transmission_texture),
+            specular_texture: bind(&self.specular_texture),
+            specular_color_texture: bind(&self.specular_color_texture),
+            normal_scale: self.normal_scale,
         }
     }
 }

@@ -9,6 +9,7 @@ pub mod layout;
 pub mod light;
 pub mod material;
 mod normals;
+pub mod texture;
 pub mod uri;
 
 use std::path::PathBuf;
@@ -44,6 +45,11 @@ impl MeshTransform {
         }
     }
 
+    /// A direction (tangent) by the linear part alone, not normalised.
+    pub fn vector(&self, v: DVec3) -> DVec3 {
+        self.world.transform_vector3(v)
+    }
+
     pub fn point(&self, p: DVec3) -> DVec3 {
         self.world.transform_point3(p)
     }
@@ -70,6 +76,14 @@ pub struct Scene {
     pub cameras: Vec<CameraDesc>,
     /// Light from infinitely far away (`--env`, `--background`); glTF files carry none.
     pub environment: Option<crate::light::EnvironmentDesc>,
+    /// Per triangle: texture coordinates of UV sets 0 and 1 (zero where the file has none).
+    pub texcoords: Vec<[[glam::Vec2; 3]; 2]>,
+    /// Per triangle: world-space unit tangents and bitangent signs (glTF `TANGENT`, or
+    /// MikkTSpace's), where a normal texture needs them.
+    pub tangents: Vec<Option<[glam::Vec4; 3]>>,
+    pub images: Vec<texture::ImageDesc>,
+    /// glTF textures, indexed as in the file.
+    pub textures: Vec<texture::TextureDesc>,
 }
 
 impl Scene {
@@ -89,9 +103,20 @@ impl Scene {
     pub fn append(&mut self, other: &Scene, transform: glam::DMat4, material: Option<MaterialDesc>) {
         let base = self.materials.len() as u32;
         let overridden = material.is_some();
+        // Textures and images follow their materials, their indices shifted.
+        let (texture_base, image_base) = (self.textures.len(), self.images.len());
+        self.images.extend(other.images.iter().cloned());
+        self.textures.extend(
+            other
+                .textures
+                .iter()
+                .map(|t| texture::TextureDesc { image: t.image.map(|i| i + image_base), ..t.clone() }),
+        );
         match material {
             Some(m) => self.materials.push(m),
-            None => self.materials.extend(other.materials.iter().cloned()),
+            None => {
+                self.materials.extend(other.materials.iter().map(|m| m.with_texture_offset(texture_base)))
+            }
         }
         let t = MeshTransform::new(transform);
         for (i, tri) in other.positions.chunks_exact(3).enumerate() {
@@ -106,14 +131,34 @@ impl Scene {
                 }
             }
             let m = if overridden { base } else { base + other.triangle_materials[i] };
+            let mut uv = other.texcoords[i];
+            let mut tangents = other.tangents[i].map(|ts| {
+                ts.map(|tv| {
+                    let d = t.vector(tv.truncate().as_dvec3()).normalize_or_zero().as_vec3();
+                    // A mirroring transform flips the bitangent (its sign) with the winding.
+                    d.extend(if t.flips_winding { -tv.w } else { tv.w })
+                })
+            });
+            if t.flips_winding {
+                uv[0].swap(1, 2);
+                uv[1].swap(1, 2);
+                if let Some(ts) = tangents.as_mut() {
+                    ts.swap(1, 2);
+                }
+            }
             self.push_triangle(p, n, m);
+            let last = self.texcoords.len() - 1;
+            self.texcoords[last] = uv;
+            self.tangents[last] = tangents;
         }
     }
 
-    /// Adds a triangle (used by scene generators and tests).
+    /// Adds a triangle (used by scene generators and tests), with no UVs or tangents.
     pub fn push_triangle(&mut self, p: [DVec3; 3], normals: Option<[Vec3; 3]>, material: u32) {
         self.positions.extend_from_slice(&p);
         self.normals.push(normals);
         self.triangle_materials.push(material);
+        self.texcoords.push([[glam::Vec2::ZERO; 3]; 2]);
+        self.tangents.push(None);
     }
 }

@@ -1,0 +1,115 @@
+// Twin of src/scene/texture.rs: texture lookup (wrap modes, bilinear or nearest, sRGB
+// decoded per texel before filtering) and the material inputs it drives.
+
+fn wrap_texel(i: i32, size: u32, mode: u32) -> u32 {
+    let n = i32(size);
+    if (mode == WRAP_CLAMP_TO_EDGE) {
+        return u32(clamp(i, 0, n - 1));
+    }
+    // Euclidean remainder (WGSL's % truncates towards zero).
+    if (mode == WRAP_MIRRORED_REPEAT) {
+        let p = 2 * n;
+        let m = ((i % p) + p) % p;
+        return u32(select(m, p - 1 - m, m >= n));
+    }
+    return u32(((i % n) + n) % n);
+}
+
+fn srgb_decode(v: f32) -> f32 {
+    if (v <= 0.04045) {
+        return v / 12.92;
+    }
+    return pow((v + 0.055) / 1.055, 2.4);
+}
+
+fn texel_fetch(info: TextureInfo, x: u32, y: u32, srgb: bool) -> vec4<f32> {
+    let t = texels[info.offset + y * info.width + x];
+    let c = vec4<f32>(f32(t & 255u), f32((t >> 8u) & 255u), f32((t >> 16u) & 255u), f32(t >> 24u)) / 255.0;
+    if (srgb) {
+        return vec4<f32>(srgb_decode(c.x), srgb_decode(c.y), srgb_decode(c.z), c.w);
+    }
+    return c;
+}
+
+const MAX_TEXEL_COORDINATE: f32 = 16777216.0;
+
+fn texture_sample(info: TextureInfo, uv: vec2<f32>, srgb: bool) -> vec4<f32> {
+    let wrap_s = info.flags & 3u;
+    let wrap_t = (info.flags >> 2u) & 3u;
+    let x = clamp(uv.x * f32(info.width), -MAX_TEXEL_COORDINATE, MAX_TEXEL_COORDINATE);
+    let y = clamp(uv.y * f32(info.height), -MAX_TEXEL_COORDINATE, MAX_TEXEL_COORDINATE);
+    if ((info.flags & TEXTURE_NEAREST) != 0u) {
+        let i = wrap_texel(i32(floor(x)), info.width, wrap_s);
+        let j = wrap_texel(i32(floor(y)), info.height, wrap_t);
+        return texel_fetch(info, i, j, srgb);
+    }
+    let fx = x - 0.5;
+    let fy = y - 0.5;
+    let x0 = floor(fx);
+    let y0 = floor(fy);
+    let tx = fx - x0;
+    let ty = fy - y0;
+    let i0 = wrap_texel(i32(x0), info.width, wrap_s);
+    let i1 = wrap_texel(i32(x0) + 1, info.width, wrap_s);
+    let j0 = wrap_texel(i32(y0), info.height, wrap_t);
+    let j1 = wrap_texel(i32(y0) + 1, info.height, wrap_t);
+    let top = texel_fetch(info, i0, j0, srgb) * (1.0 - tx) + texel_fetch(info, i1, j0, srgb) * tx;
+    let bottom = texel_fetch(info, i0, j1, srgb) * (1.0 - tx) + texel_fetch(info, i1, j1, srgb) * tx;
+    return top * (1.0 - ty) + bottom * ty;
+}
+
+// UV sets 0 (xy) and 1 (zw) of a triangle at barycentrics b.
+fn triangle_uv(triangle: u32, b: vec3<f32>) -> vec4<f32> {
+    if (!FEATURE_TEXTURES) {
+        return vec4<f32>(0.0);
+    }
+    let t = texcoords[triangle];
+    let uv0 = b.x * t.uv0[0] + b.y * t.uv0[1] + b.z * t.uv0[2];
+    let uv1 = b.x * t.uv1[0] + b.y * t.uv1[1] + b.z * t.uv1[2];
+    return vec4<f32>(uv0, uv1);
+}
+
+fn texture_lookup(binding_index: u32, uv: vec4<f32>, srgb: bool) -> vec4<f32> {
+    let binding = texture_bindings[binding_index];
+    let st = select(uv.xy, uv.zw, binding.tex_coord == 1u);
+    let t = vec2<f32>(dot(binding.row0, vec3<f32>(st, 1.0)), dot(binding.row1, vec3<f32>(st, 1.0)));
+    return texture_sample(texture_infos[binding.texture], t, srgb);
+}
+
+fn textured_material(material: Material, uv: vec4<f32>) -> Material {
+    var m = material;
+    if (!FEATURE_TEXTURES) {
+        return m;
+    }
+    if (m.base_color_texture != INVALID_INDEX) {
+        let t = texture_lookup(m.base_color_texture, uv, true);
+        m.base_color *= t.xyz;
+        m.alpha *= t.w;
+    }
+    if (m.metallic_roughness_texture != INVALID_INDEX) {
+        let t = texture_lookup(m.metallic_roughness_texture, uv, false);
+        m.metallic *= t.z;
+        m.roughness *= t.y;
+        m.alpha_roughness = alpha_from_roughness(m.roughness);
+    }
+    if (m.emissive_texture != INVALID_INDEX) {
+        m.emission *= texture_lookup(m.emissive_texture, uv, true).xyz;
+    }
+    if (m.transmission_texture != INVALID_INDEX) {
+        m.transmission *= texture_lookup(m.transmission_texture, uv, false).x;
+    }
+    if (m.specular_texture != INVALID_INDEX) {
+        m.specular_factor *= texture_lookup(m.specular_texture, uv, false).w;
+    }
+    if (m.specular_color_texture != INVALID_INDEX) {
+        m.specular_color *= texture_lookup(m.specular_color_texture, uv, true).xyz;
+    }
+    return m;
+}
+
+fn emitted_radiance(material: Material, triangle: u32, b: vec3<f32>) -> vec3<f32> {
+    if (FEATURE_TEXTURES && material.emissive_texture != INVALID_INDEX) {
+        return material.emission * texture_lookup(material.emissive_texture, triangle_uv(triangle, b), true).xyz;
+    }
+    return material.emission;
+}
