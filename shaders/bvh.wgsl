@@ -22,7 +22,7 @@ fn node_axis(n: BvhNode) -> u32 {
 // Visits the leaves the ray may touch, nearer child first (twin of `traverse` in
 // src/bvh/traverse.rs). With `any_hit` it returns at the first hit found (shadow rays);
 // otherwise the nearest hit.
-fn traverse(ray_in: Ray, any_hit: bool) -> ClosestHit {
+fn traverse(ray_in: Ray, any_hit: bool, alpha_seed: u32) -> ClosestHit {
     rays_traced += 1u;
     var ray = ray_in;
     var best = ClosestHit(INVALID_INDEX, vec3<f32>(0.0), 0.0);
@@ -39,7 +39,7 @@ fn traverse(ray_in: Ray, any_hit: bool) -> ClosestHit {
                 for (var i = node.offset; i < node.offset + count; i++) {
                     let tri = triangles[i];
                     let hit = intersect_triangle(ray, tri.p0, tri.p1, tri.p2);
-                    if (hit.valid) {
+                    if (hit.valid && (!FEATURE_ALPHA || alpha_accepts(i, hit.b, alpha_seed))) {
                         ray.t_max = hit.t;
                         best = ClosestHit(i, hit.b, hit.t);
                         if (any_hit) {
@@ -69,12 +69,12 @@ fn traverse(ray_in: Ray, any_hit: bool) -> ClosestHit {
     return best;
 }
 
-// The nearest intersection in (0, ray.t_max).
-fn intersect_closest(ray: Ray) -> ClosestHit {
-    return traverse(ray, false);
+// The nearest intersection in (0, ray.t_max); alpha-tested hits by `alpha_seed`.
+fn intersect_closest(ray: Ray, alpha_seed: u32) -> ClosestHit {
+    return traverse(ray, false, alpha_seed);
 }
 
 // Is anything hit in (0, ray.t_max)? (Shadow rays.)
-fn intersect_any(ray: Ray) -> bool {
-    return traverse(ray, true).triangle != INVALID_INDEX;
+fn intersect_any(ray: Ray, alpha_seed: u32) -> bool {
+    return traverse(ray, true, alpha_seed).triangle != INVALID_INDEX;
 }

@@ -12,3 +12,4 @@ override FEATURE_DIRECTIONAL_LIGHTS: bool = true;
 override FEATURE_ENVIRONMENT: bool = true;
 override FEATURE_TEXTURES: bool = true;
 override FEATURE_NORMAL_MAPS: bool = true;
+override FEATURE_ALPHA: bool = true;

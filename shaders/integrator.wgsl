@@ -84,7 +84,11 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
     var prev_delta = true;
     var prev_pdf = 0.0;
     loop {
-        let hit = intersect_closest(ray);
+        var alpha_seed = 0u;
+        if (FEATURE_ALPHA) {
+            alpha_seed = rng_next_u32();
+        }
+        let hit = intersect_closest(ray, alpha_seed);
         if (hit.triangle == INVALID_INDEX) {
             if (FEATURE_ENVIRONMENT && environment.present != 0u) {
                 let env = environment_lookup(ray.direction);
@@ -125,7 +129,15 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
             if (ls.valid) {
                 let wi = frame_to_local(si.frame, ls.wi);
                 let f = gltf_bsdf_eval(bsdf, si.wo, wi);
-                if (max_element(f) > 0.0 && !intersect_any(ls.shadow_ray)) {
+                var unoccluded = false;
+                if (max_element(f) > 0.0) {
+                    var shadow_seed = 0u;
+                    if (FEATURE_ALPHA) {
+                        shadow_seed = rng_next_u32();
+                    }
+                    unoccluded = !intersect_any(ls.shadow_ray, shadow_seed);
+                }
+                if (unoccluded) {
                     let contribution = beta * f * abs(wi.z) * ls.radiance;
                     if (ls.is_delta) {
                         l += contribution / ls.pdf;
@@ -205,7 +217,7 @@ fn first_hit(@builtin(global_invocation_id) gid: vec3<u32>) {
     let y = px.y;
     rng_seed(x, y, 0u, frame.seed);
     let ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
-    let hit = intersect_closest(ray);
+    let hit = intersect_closest(ray, 0u);
     var out = FirstHit(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), INVALID_INDEX);
     if (hit.triangle != INVALID_INDEX) {
         let si = surface_interaction(ray, hit);

@@ -46,6 +46,10 @@ struct Material {
     specular_texture: u32,
     specular_color_texture: u32,
     normal_scale: f32,
+    alpha_cutoff: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct TextureInfo {
@@ -145,6 +149,8 @@ const WRAP_MIRRORED_REPEAT: u32 = 2u;
 const TEXTURE_NEAREST: u32 = 16u;
 const MATERIAL_DOUBLE_SIDED: u32 = 1u;
 const MATERIAL_VOLUME: u32 = 2u;
+const MATERIAL_ALPHA_MASK: u32 = 4u;
+const MATERIAL_ALPHA_BLEND: u32 = 8u;
 const LIGHT_TRIANGLE: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
 const LIGHT_SPOT: u32 = 2u;

@@ -113,3 +113,24 @@ fn emitted_radiance(material: Material, triangle: u32, b: vec3<f32>) -> vec3<f32
     }
     return material.emission;
 }
+
+const ALPHA_HASH_SALT: u32 = 0x2545f491u;
+
+// Twin of `alpha_accepts` (src/scene/texture.rs): OPAQUE always, MASK where alpha ≥ cutoff,
+// BLEND with probability alpha by a hash of the ray's seed and the triangle.
+fn alpha_accepts(triangle: u32, b: vec3<f32>, alpha_seed: u32) -> bool {
+    let m = materials[triangles[triangle].material];
+    let mask = (m.flags & MATERIAL_ALPHA_MASK) != 0u;
+    if (!mask && (m.flags & MATERIAL_ALPHA_BLEND) == 0u) {
+        return true;
+    }
+    var alpha = m.alpha;
+    if (FEATURE_TEXTURES && m.base_color_texture != INVALID_INDEX) {
+        alpha *= texture_lookup(m.base_color_texture, triangle_uv(triangle, b), false).w;
+    }
+    if (mask) {
+        return alpha >= m.alpha_cutoff;
+    }
+    let h = pcg4d(vec4<u32>(alpha_seed, triangle, ALPHA_HASH_SALT, 0u)).x;
+    return f32(h >> 8u) * (1.0 / 16777216.0) < alpha;
+}

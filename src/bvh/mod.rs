@@ -8,4 +8,7 @@ mod build;
 mod traverse;
 
 pub use build::{build, Bvh, BvhStats, MAX_DEPTH};
-pub use traverse::{intersect_any, intersect_closest, ClosestHit, TRAVERSAL_STACK_SIZE};
+pub use traverse::{
+    intersect_any, intersect_any_filtered, intersect_closest, intersect_closest_filtered, ClosestHit,
+    TRAVERSAL_STACK_SIZE,
+};

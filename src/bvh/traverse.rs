@@ -62,14 +62,32 @@ fn traverse(nodes: &[BvhNode], ray: &mut Ray, mut visit: impl FnMut(u32, u32, &m
 
 /// The nearest intersection in `(0, ray.t_max)`.
 pub fn intersect_closest(nodes: &[BvhNode], triangles: &[Triangle], ray: &Ray) -> Option<ClosestHit> {
+    intersect_closest_filtered(nodes, triangles, ray, |_, _| true)
+}
+
+/// Is anything hit in `(0, ray.t_max)`? Stops at the first hit (shadow rays).
+pub fn intersect_any(nodes: &[BvhNode], triangles: &[Triangle], ray: &Ray) -> bool {
+    intersect_any_filtered(nodes, triangles, ray, |_, _| true)
+}
+
+/// [`intersect_closest`] counting only the hits `accept(triangle, hit)` keeps (any-hit
+/// filtering: alpha-tested surfaces).
+pub fn intersect_closest_filtered(
+    nodes: &[BvhNode],
+    triangles: &[Triangle],
+    ray: &Ray,
+    accept: impl Fn(u32, &TriangleHit) -> bool,
+) -> Option<ClosestHit> {
     let mut ray = *ray;
     let mut best = None;
     traverse(nodes, &mut ray, |first, count, ray| {
         for i in first..first + count {
             let (p0, p1, p2) = vertices(&triangles[i as usize]);
             if let Some(hit) = intersect_triangle(ray, p0, p1, p2) {
-                ray.t_max = hit.t;
-                best = Some(ClosestHit { triangle: i, hit });
+                if accept(i, &hit) {
+                    ray.t_max = hit.t;
+                    best = Some(ClosestHit { triangle: i, hit });
+                }
             }
         }
         false
@@ -77,16 +95,23 @@ pub fn intersect_closest(nodes: &[BvhNode], triangles: &[Triangle], ray: &Ray) -
     best
 }
 
-/// Is anything hit in `(0, ray.t_max)`? Stops at the first hit (shadow rays).
-pub fn intersect_any(nodes: &[BvhNode], triangles: &[Triangle], ray: &Ray) -> bool {
+/// [`intersect_any`] counting only the hits `accept` keeps.
+pub fn intersect_any_filtered(
+    nodes: &[BvhNode],
+    triangles: &[Triangle],
+    ray: &Ray,
+    accept: impl Fn(u32, &TriangleHit) -> bool,
+) -> bool {
     let mut ray = *ray;
     let mut found = false;
     traverse(nodes, &mut ray, |first, count, ray| {
         for i in first..first + count {
             let (p0, p1, p2) = vertices(&triangles[i as usize]);
-            if intersect_triangle(ray, p0, p1, p2).is_some() {
-                found = true;
-                return true;
+            if let Some(hit) = intersect_triangle(ray, p0, p1, p2) {
+                if accept(i, &hit) {
+                    found = true;
+                    return true;
+                }
             }
         }
         false

@@ -12,7 +12,7 @@
 use glam::{Vec2, Vec3};
 
 use crate::bsdf::GltfBsdf;
-use crate::bvh::{intersect_any, intersect_closest, ClosestHit};
+use crate::bvh::ClosestHit;
 use crate::geometry::{spawn_ray, triangle_error_bound, Frame, Ray};
 use crate::light::{environment_lookup, sample_light, triangle_light_pdf};
 use crate::sampling::{power_heuristic, Rng};
@@ -152,7 +152,10 @@ pub fn radiance(
     let mut prev_pdf = 0.0f32;
     loop {
         *rays = rays.wrapping_add(1);
-        let Some(hit) = intersect_closest(&scene.nodes, &scene.triangles, &ray) else {
+        // Scenes with alpha-tested materials draw one number per traversal for stochastic
+        // transparency; others draw none, keeping their random streams.
+        let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
+        let Some(hit) = scene.intersect_closest(&ray, alpha_seed) else {
             // The ray leaves the scene: the environment's radiance, MIS-weighted against
             // next-event estimation when NEE could have sampled this direction.
             let env = &scene.environment;
@@ -208,7 +211,8 @@ pub fn radiance(
                 let f = bsdf.eval(si.wo, wi);
                 let unoccluded = f.max_element() > 0.0 && {
                     *rays = rays.wrapping_add(1);
-                    !intersect_any(&scene.nodes, &scene.triangles, &ls.shadow_ray)
+                    let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
+                    !scene.intersect_any(&ls.shadow_ray, alpha_seed)
                 };
                 if unoccluded {
                     let contribution = beta * f * wi.z.abs() * ls.radiance;
@@ -254,7 +258,7 @@ pub fn radiance(
 pub fn first_hit(scene: &FlatScene, width: u32, height: u32, x: u32, y: u32, seed: u32) -> FirstHit {
     let mut rng = Rng::new(x, y, 0, seed);
     let ray = crate::scene::camera::generate_camera_ray(&scene.camera, width, height, x, y, rng.next_2d());
-    match intersect_closest(&scene.nodes, &scene.triangles, &ray) {
+    match scene.intersect_closest(&ray, 0) {
         Some(hit) => {
             let si = surface_interaction(scene, &ray, &hit);
             FirstHit {

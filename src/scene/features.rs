@@ -28,6 +28,8 @@ pub struct SceneFeatures {
     pub textures: bool,
     /// Some triangle is normal-mapped.
     pub normal_maps: bool,
+    /// Some material's alpha mode is MASK or BLEND (alpha tests inside traversal).
+    pub alpha: bool,
 }
 
 impl SceneFeatures {
@@ -43,6 +45,7 @@ impl SceneFeatures {
         environment: true,
         textures: true,
         normal_maps: true,
+        alpha: true,
     };
 
     /// The features of `materials[i]` for every `i` in `used_materials`, and of `lights`.
@@ -58,6 +61,7 @@ impl SceneFeatures {
             f.specular |= m.metallic > 0.0 || m.specular_factor > 0.0;
             f.transmission |= m.transmission > 0.0;
             f.volume |= m.flags & MATERIAL_VOLUME != 0;
+            f.alpha |= m.flags & (layout::MATERIAL_ALPHA_MASK | layout::MATERIAL_ALPHA_BLEND) != 0;
         }
         for l in lights {
             match l.kind {
@@ -75,7 +79,7 @@ impl SceneFeatures {
     }
 
     /// `(WGSL override name, value)` for each feature, as the kernel declares them.
-    pub fn pipeline_constants(&self) -> [(&'static str, bool); 10] {
+    pub fn pipeline_constants(&self) -> [(&'static str, bool); 11] {
         [
             ("FEATURE_SPECULAR", self.specular),
             ("FEATURE_TRANSMISSION", self.transmission),
@@ -87,6 +91,7 @@ impl SceneFeatures {
             ("FEATURE_ENVIRONMENT", self.environment),
             ("FEATURE_TEXTURES", self.textures),
             ("FEATURE_NORMAL_MAPS", self.normal_maps),
+            ("FEATURE_ALPHA", self.alpha),
         ]
     }
 

@@ -298,6 +298,47 @@ impl FlatScene {
         }
     }
 
+    /// The nearest hit of `ray`, alpha-tested when the scene has alpha (`alpha_seed`, see
+    /// [`super::texture::alpha_accepts`]).
+    pub fn intersect_closest(
+        &self,
+        ray: &crate::geometry::Ray,
+        alpha_seed: u32,
+    ) -> Option<crate::bvh::ClosestHit> {
+        if !self.features.alpha {
+            return crate::bvh::intersect_closest(&self.nodes, &self.triangles, ray);
+        }
+        let arrays = self.texture_arrays();
+        crate::bvh::intersect_closest_filtered(&self.nodes, &self.triangles, ray, |i, h| {
+            super::texture::alpha_accepts(
+                &self.materials,
+                &self.triangles,
+                &arrays,
+                i,
+                Vec3::new(h.b0, h.b1, h.b2),
+                alpha_seed,
+            )
+        })
+    }
+
+    /// Is anything hit along `ray` (shadow rays), alpha-tested like [`Self::intersect_closest`].
+    pub fn intersect_any(&self, ray: &crate::geometry::Ray, alpha_seed: u32) -> bool {
+        if !self.features.alpha {
+            return crate::bvh::intersect_any(&self.nodes, &self.triangles, ray);
+        }
+        let arrays = self.texture_arrays();
+        crate::bvh::intersect_any_filtered(&self.nodes, &self.triangles, ray, |i, h| {
+            super::texture::alpha_accepts(
+                &self.materials,
+                &self.triangles,
+                &arrays,
+                i,
+                Vec3::new(h.b0, h.b1, h.b2),
+                alpha_seed,
+            )
+        })
+    }
+
     /// The arrays light sampling reads.
     pub fn light_arrays(&self) -> crate::light::LightArrays<'_> {
         crate::light::LightArrays {

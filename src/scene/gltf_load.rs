@@ -133,17 +133,6 @@ fn load_unchecked(bytes: &[u8], file: &Path, options: &LoadOptions) -> Result<(S
     scene.materials = doc.materials().map(|m| read_material(&m, file)).collect::<Result<_>>()?;
     let default_material = scene.materials.len() as u32;
     scene.materials.push(MaterialDesc::default());
-    let alpha: Vec<&str> = scene
-        .materials
-        .iter()
-        .filter(|m| m.alpha_mode != AlphaMode::Opaque)
-        .map(|m| m.name.as_str())
-        .collect();
-    if !alpha.is_empty() {
-        warnings
-            .push(format!("alpha modes are not rendered yet; {} material(s) treated as opaque", alpha.len()));
-    }
-
     let gltf_scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
@@ -667,6 +656,7 @@ fn read_material(m: &gltf::Material, file: &Path) -> Result<MaterialDesc> {
             gltf::material::AlphaMode::Mask => AlphaMode::Mask,
             gltf::material::AlphaMode::Blend => AlphaMode::Blend,
         },
+        alpha_cutoff: m.alpha_cutoff().filter(|c| c.is_finite()).unwrap_or(0.5),
         base_color_texture: slot(pbr.base_color_texture()),
         metallic_roughness_texture: slot(pbr.metallic_roughness_texture()),
         // normalTexture and occlusionTexture are not textureInfo in the gltf crate, and it

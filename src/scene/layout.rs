@@ -108,7 +108,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A material reduced to what the kernels evaluate, 112 bytes. See `src/bsdf/gltf.rs` for
+    /// A material reduced to what the kernels evaluate, 128 bytes. See `src/bsdf/gltf.rs` for
     /// how each field enters the glTF BSDF.
     pub struct Material {
         /// Linear base colour.
@@ -146,6 +146,11 @@ gpu_struct! {
         pub specular_color_texture: u32,
         /// glTF `normalTexture.scale`.
         pub normal_scale: f32,
+        /// glTF `alphaCutoff` (alpha mode MASK).
+        pub alpha_cutoff: f32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 
@@ -204,6 +209,11 @@ pub const MATERIAL_DOUBLE_SIDED: u32 = 1;
 /// [`Material::flags`] bit: a refracting solid (KHR_materials_volume `thicknessFactor` > 0);
 /// otherwise transmission is thin-walled.
 pub const MATERIAL_VOLUME: u32 = 2;
+/// [`Material::flags`] bit: alpha mode MASK (a hit counts where alpha ≥ `alpha_cutoff`).
+pub const MATERIAL_ALPHA_MASK: u32 = 4;
+/// [`Material::flags`] bit: alpha mode BLEND, as stochastic transparency (a hit counts with
+/// probability alpha).
+pub const MATERIAL_ALPHA_BLEND: u32 = 8;
 
 gpu_struct! {
     /// One light, with its entry of the power-proportional alias table, 64 bytes.

@@ -4,7 +4,9 @@
 use glam::Vec3;
 
 use crate::bsdf::alpha_from_roughness;
-use crate::scene::layout::{self, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
+use crate::scene::layout::{
+    self, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME,
+};
 
 /// A texture reference (glTF `textureInfo`, with KHR_texture_transform applied).
 #[derive(Clone, Debug, PartialEq)]
@@ -54,6 +56,8 @@ pub struct MaterialDesc {
     pub normal_scale: f32,
     pub double_sided: bool,
     pub alpha_mode: AlphaMode,
+    /// glTF `alphaCutoff` (0.5 when absent).
+    pub alpha_cutoff: f32,
     /// KHR_materials_ior (1.5 when absent).
     pub ior: f32,
     /// KHR_materials_specular (1 and white when absent).
@@ -89,6 +93,7 @@ impl Default for MaterialDesc {
             normal_scale: 1.0,
             double_sided: false,
             alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
             ior: 1.5,
             specular_factor: 1.0,
             specular_color: Vec3::ONE,
@@ -198,6 +203,11 @@ impl MaterialDesc {
         if self.is_volume() {
             flags |= MATERIAL_VOLUME;
         }
+        flags |= match self.alpha_mode {
+            AlphaMode::Opaque => 0,
+            AlphaMode::Mask => MATERIAL_ALPHA_MASK,
+            AlphaMode::Blend => MATERIAL_ALPHA_BLEND,
+        };
         layout::Material {
             base_color: self.base_color.to_array(),
             alpha: self.alpha,
@@ -219,6 +229,10 @@ impl MaterialDesc {
             specular_texture: bind(&self.specular_texture),
             specular_color_texture: bind(&self.specular_color_texture),
             normal_scale: self.normal_scale,
+            alpha_cutoff: self.alpha_cutoff,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         }
     }
 }

@@ -10,8 +10,8 @@
 use glam::{Vec2, Vec3, Vec4};
 
 use super::layout::{
-    Material, TextureBinding, TextureInfo, TriangleTexcoords, INVALID_INDEX, TEXTURE_NEAREST,
-    WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT,
+    Material, TextureBinding, TextureInfo, TriangleTexcoords, INVALID_INDEX, MATERIAL_ALPHA_BLEND,
+    MATERIAL_ALPHA_MASK, TEXTURE_NEAREST, WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT,
 };
 use crate::bsdf::alpha_from_roughness;
 
@@ -266,6 +266,38 @@ pub fn textured_material(material: &Material, arrays: &TextureArrays, uv: (Vec2,
     }
     m
 }
+
+/// Does a ray hit on `triangle` at barycentrics `b` count, by its material's alpha mode
+/// (glTF 2.0 §3.9.4)? OPAQUE: always. MASK: where alpha ≥ `alphaCutoff`. BLEND: with
+/// probability alpha (stochastic transparency, Enderton et al. 2010), decided by a hash of
+/// the ray's `alpha_seed` and the triangle, so one ray sees one answer per triangle and both
+/// backends see the same. alpha = `baseColorFactor.a` × the base colour texture's alpha.
+pub fn alpha_accepts(
+    materials: &[Material],
+    triangles: &[super::layout::Triangle],
+    arrays: &TextureArrays,
+    triangle: u32,
+    b: Vec3,
+    alpha_seed: u32,
+) -> bool {
+    let m = &materials[triangles[triangle as usize].material as usize];
+    let mask = m.flags & MATERIAL_ALPHA_MASK != 0;
+    if !mask && m.flags & MATERIAL_ALPHA_BLEND == 0 {
+        return true;
+    }
+    let texture_alpha =
+        arrays.lookup(m.base_color_texture, arrays.uv(triangle, b), false).map_or(1.0, |t| t.w);
+    let alpha = m.alpha * texture_alpha;
+    if mask {
+        alpha >= m.alpha_cutoff
+    } else {
+        let h = crate::sampling::pcg4d(glam::UVec4::new(alpha_seed, triangle, ALPHA_HASH_SALT, 0)).x;
+        ((h >> 8) as f32 * (1.0 / 16_777_216.0)) < alpha
+    }
+}
+
+/// Separates the alpha hash from other uses of pcg4d.
+pub const ALPHA_HASH_SALT: u32 = 0x2545_f491;
 
 #[cfg(test)]
 mod tests {
