@@ -26,6 +26,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_texture_transform",
 ];
 
 /// Loads a glTF scene under the rule for untrusted input (external URIs stay inside the
