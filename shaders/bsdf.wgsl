@@ -267,10 +267,12 @@ struct BsdfSample {
     pdf_solid_angle: f32,
     is_delta: bool,
     valid: bool,
+    // η² across a volume boundary, else 1 (see the CPU twin).
+    eta_scale: f32,
 }
 
 fn no_bsdf_sample() -> BsdfSample {
-    return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false, false);
+    return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false, false, 1.0);
 }
 
 fn lobe_weight(present: bool, estimate: f32) -> f32 {
@@ -400,7 +402,7 @@ fn gltf_bsdf_sample(b: GltfBsdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> Bs
     if (u_lobe < b.p_reflect) {
         if (b.alpha == 0.0) {
             let f = dielectric * dielectric_fresnel(b, wo.z) + b.metallic * metal_fresnel(b, wo.z);
-            return BsdfSample(vec3<f32>(-wo.x, -wo.y, wo.z), f / b.p_reflect, b.p_reflect, true, true);
+            return BsdfSample(vec3<f32>(-wo.x, -wo.y, wo.z), f / b.p_reflect, b.p_reflect, true, true, 1.0);
         }
         let s = reflection_sample(wo, b.alpha, u);
         if (s.w == 0.0) {
@@ -426,7 +428,7 @@ fn gltf_bsdf_sample(b: GltfBsdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> Bs
             }
             let fd = dielectric_fresnel(b, wo.z);
             let t = dielectric * b.transmission * b.base_color * (1.0 - max_element(fd)) / eta2;
-            return BsdfSample(wt, t / b.p_transmit, b.p_transmit, true, true);
+            return BsdfSample(wt, t / b.p_transmit, b.p_transmit, true, true, eta2);
         }
         var s: vec4<f32>;
         if (b.volume) {
@@ -444,7 +446,8 @@ fn gltf_bsdf_sample(b: GltfBsdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> Bs
         return no_bsdf_sample();
     }
     let f = gltf_bsdf_eval(b, wo, wi);
-    return BsdfSample(wi, f * abs(wi.z) / pdf, pdf, false, true);
+    let eta_scale = select(1.0, b.eta * b.eta, b.volume && wi.z < 0.0);
+    return BsdfSample(wi, f * abs(wi.z) / pdf, pdf, false, true, eta_scale);
 }
 
 // Twin of `alpha_from_roughness` (src/bsdf/mod.rs): GGX α = roughness², 0 exactly for a

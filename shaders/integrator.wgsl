@@ -83,6 +83,7 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
     var depth = 0u;
     var prev_delta = true;
     var prev_pdf = 0.0;
+    var eta_scale = 1.0;
     loop {
         var alpha_seed = 0u;
         if (FEATURE_ALPHA) {
@@ -161,12 +162,13 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
         }
         prev_delta = bs.is_delta;
         prev_pdf = bs.pdf_solid_angle;
+        eta_scale *= bs.eta_scale;
         depth += 1u;
         let wi_world = normalize(frame_from_local(si.frame, bs.wi));
         ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
 
         if (depth >= frame.rr_min_depth) {
-            let q = min(max_element(beta), RR_MAX_SURVIVAL);
+            let q = min(max_element(beta * eta_scale), RR_MAX_SURVIVAL);
             if (q <= 0.0 || rng_next_1d() >= q) {
                 break;
             }

@@ -56,6 +56,10 @@ pub struct BsdfSample {
     pub pdf_solid_angle: f32,
     /// From a delta lobe (mirror or smooth refraction): no MIS with light sampling.
     pub is_delta: bool,
+    /// η² when the sample refracts through a volume boundary (its weight carries the
+    /// radiance factor 1/η²), else 1: Russian roulette takes it back out (pbrt-v4
+    /// `etaScale`), so paths inside glass are not killed for a factor that leaving undoes.
+    pub eta_scale: f32,
 }
 
 /// The BSDF at one shading point, for one outgoing direction.
@@ -228,6 +232,7 @@ impl GltfBsdf {
                     weight: f / self.p_reflect,
                     pdf_solid_angle: self.p_reflect,
                     is_delta: true,
+                    eta_scale: 1.0,
                 });
             }
             reflection_sample(wo, self.alpha, u)?
@@ -250,6 +255,7 @@ impl GltfBsdf {
                     weight: t / self.p_transmit,
                     pdf_solid_angle: self.p_transmit,
                     is_delta: true,
+                    eta_scale: eta2,
                 });
             }
             if self.volume {
@@ -265,6 +271,13 @@ impl GltfBsdf {
             return None;
         }
         let f = self.eval(wo, wi);
-        Some(BsdfSample { wi, weight: f * wi.z.abs() / pdf, pdf_solid_angle: pdf, is_delta: false })
+        let eta_scale = if self.volume && wi.z < 0.0 { self.eta * self.eta } else { 1.0 };
+        Some(BsdfSample {
+            wi,
+            weight: f * wi.z.abs() / pdf,
+            pdf_solid_angle: pdf,
+            is_delta: false,
+            eta_scale,
+        })
     }
 }

@@ -150,6 +150,9 @@ pub fn radiance(
     let mut depth = 0u32;
     let mut prev_delta = true;
     let mut prev_pdf = 0.0f32;
+    // Product of η² over the refractions so far: beta × eta_scale is the throughput without
+    // the radiance factors 1/η² that entering and leaving a solid cancel (pbrt-v4 §14.1.4).
+    let mut eta_scale = 1.0f32;
     loop {
         *rays = rays.wrapping_add(1);
         // Scenes with alpha-tested materials draw one number per traversal for stochastic
@@ -238,13 +241,16 @@ pub fn radiance(
         }
         prev_delta = bs.is_delta;
         prev_pdf = bs.pdf_solid_angle;
+        eta_scale *= bs.eta_scale;
         depth += 1;
         let wi_world = si.frame.from_local(bs.wi).normalize();
         ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
 
-        // Russian roulette (unbiased: survivors are divided by the survival probability).
+        // Russian roulette (unbiased: survivors are divided by the survival probability),
+        // judged on the throughput with the refraction factors taken out: inside glass beta
+        // is scaled by 1/η², which leaving undoes, so a path there is as valuable as outside.
         if depth >= settings.rr_min_depth {
-            let q = beta.max_element().min(RR_MAX_SURVIVAL);
+            let q = (beta * eta_scale).max_element().min(RR_MAX_SURVIVAL);
             if q <= 0.0 || rng.next_1d() >= q {
                 break;
             }
