@@ -103,7 +103,10 @@ struct BenchArgs {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum BackendChoice {
-    /// The WGSL megakernel on a Vulkan device (falls back to the CPU if there is none).
+    /// The fastest present: a hardware GPU if there is one; else (only a software Vulkan
+    /// rasteriser such as lavapipe, or no Vulkan at all) the CPU backend, saying why.
+    Auto,
+    /// The WGSL megakernel on a Vulkan device, software rasterisers included.
     Gpu,
     /// The CPU reference renderer.
     Cpu,
@@ -131,7 +134,7 @@ struct RenderArgs {
     /// Image height (default 512; derived from the camera's aspect ratio if only --width is given).
     #[arg(long)]
     height: Option<u32>,
-    #[arg(long, value_enum, default_value_t = BackendChoice::Gpu)]
+    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     backend: BackendChoice,
     /// GPU: use the first Vulkan adapter whose name contains this (case-insensitive).
     #[arg(long)]
@@ -383,26 +386,41 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         flat.bvh_stats.sah_cost,
         flat.features.describe()
     );
-    let mut backend: Box<dyn Backend + '_> = match args.backend {
-        BackendChoice::Cpu => Box::new(pathlight::cpu::CpuBackend::new(&flat, &settings)),
-        BackendChoice::Gpu => match GpuContext::new(args.device.as_deref()) {
-            Ok(ctx) => {
-                let gpu = GpuBackend::new(Arc::new(ctx), &flat, &settings)?;
-                eprintln!(
-                    "kernel specialised to [{}] built in {:.2} s, scene uploaded in {:.3} s",
-                    flat.features.describe(),
-                    gpu.kernel_build_seconds(),
-                    gpu.upload_seconds
-                );
-                Box::new(gpu)
+    // --device names an adapter, so it asks for the GPU backend.
+    let choice = match (args.backend, &args.device) {
+        (BackendChoice::Auto, Some(_)) => BackendChoice::Gpu,
+        (BackendChoice::Auto, None) => {
+            let adapters = enumerate_adapters();
+            if pathlight::gpu::hardware_adapter(&adapters).is_some() {
+                BackendChoice::Gpu
+            } else {
+                let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+                if names.is_empty() {
+                    eprintln!("backend auto: no Vulkan adapter found; rendering on the CPU backend");
+                } else {
+                    eprintln!(
+                        "backend auto: the only Vulkan adapter ({}) is a software rasteriser, slower here than the CPU backend; rendering on the CPU backend (--backend gpu forces it)",
+                        names.join(", ")
+                    );
+                }
+                BackendChoice::Cpu
             }
-            // No Vulkan device at all: the CPU reference renders the same image.
-            Err(e) if args.device.is_none() => {
-                eprintln!("warning: {e}; falling back to the CPU backend");
-                Box::new(pathlight::cpu::CpuBackend::new(&flat, &settings))
-            }
-            Err(e) => return Err(e),
-        },
+        }
+        (other, _) => other,
+    };
+    let mut backend: Box<dyn Backend + '_> = match choice {
+        BackendChoice::Gpu => {
+            let ctx = GpuContext::new(args.device.as_deref())?;
+            let gpu = GpuBackend::new(Arc::new(ctx), &flat, &settings)?;
+            eprintln!(
+                "kernel specialised to [{}] built in {:.2} s, scene uploaded in {:.3} s",
+                flat.features.describe(),
+                gpu.kernel_build_seconds(),
+                gpu.upload_seconds
+            );
+            Box::new(gpu)
+        }
+        _ => Box::new(pathlight::cpu::CpuBackend::new(&flat, &settings)),
     };
 
     // Ctrl-C stops after the pass in flight and still writes what was rendered; a second

@@ -49,6 +49,18 @@ pub fn describe_adapter(adapter: &wgpu::Adapter) -> String {
     )
 }
 
+/// The adapter `--backend auto` renders on: the best hardware one (discrete, integrated,
+/// virtual or other), or `None` when every adapter is a software rasteriser (device type CPU,
+/// such as Mesa's lavapipe, which is several times slower than the CPU backend on the same
+/// cores) or there is none.
+pub fn hardware_adapter(adapters: &[wgpu::Adapter]) -> Option<wgpu::AdapterInfo> {
+    adapters
+        .iter()
+        .map(|a| a.get_info())
+        .filter(|i| i.device_type != wgpu::DeviceType::Cpu)
+        .min_by_key(|i| type_rank(i.device_type))
+}
+
 fn type_rank(t: wgpu::DeviceType) -> u32 {
     match t {
         wgpu::DeviceType::DiscreteGpu => 0,
