@@ -82,7 +82,7 @@ pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> Su
     let ng_facing = if front_face { n_geometric } else { -n_geometric };
     let b = Vec3::new(h.b0, h.b1, h.b2);
     let textures = scene.texture_arrays();
-    let uv = textures.uv(hit.triangle, b);
+    let uv = if scene.features.textures { textures.uv(hit.triangle, b) } else { (Vec2::ZERO, Vec2::ZERO) };
     // The shading normal on the geometric front side: interpolated vertex normals, then the
     // normal map in their tangent frame (glTF 2.0 §3.9.3: n = T·x + B·y + N·z with
     // B = (N × T)·w, the map's x and y scaled by normalTexture.scale).
@@ -174,8 +174,15 @@ pub fn radiance(
             break;
         };
         let si = surface_interaction(scene, &ray, &hit);
-        let material =
-            &textured_material(&scene.materials[si.material as usize], &scene.texture_arrays(), si.uv);
+        // Untextured scenes skip the per-hit copy (the kernel's FEATURE_TEXTURES does the same).
+        let textured;
+        let material = if scene.features.textures {
+            textured =
+                textured_material(&scene.materials[si.material as usize], &scene.texture_arrays(), si.uv);
+            &textured
+        } else {
+            &scene.materials[si.material as usize]
+        };
 
         // Beer–Lambert absorption inside a refracting solid: a ray reaching a back face has
         // travelled through the medium (closed, outward-facing meshes, as KHR_materials_volume
