@@ -13,6 +13,23 @@ use pathlight::gpu::{describe_adapter, enumerate_adapters, GpuBackend, GpuContex
 use pathlight::scene::{FlatScene, LoadOptions, ViewSettings};
 use pathlight::{Backend, Error, RenderSettings};
 
+/// `println!` for the command line's standard output: when the reader has gone away
+/// (`pathlight info | head -3`) the process ends quietly with status 141, as a Unix tool
+/// ended by SIGPIPE does, instead of panicking; never 0, so a `compare` verdict cannot be
+/// misreported.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout(), $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(141);
+            }
+            eprintln!("error: cannot write to standard output: {e}");
+            std::process::exit(2);
+        }
+    }};
+}
+
 #[derive(Parser)]
 #[command(
     name = "pathlight",
@@ -232,9 +249,9 @@ fn run_compare(args: CompareArgs) -> ExitCode {
             write_zmap_exr(&report, p)?;
         }
         if args.json {
-            println!("{:#}", report.to_json());
+            out!("{:#}", report.to_json());
         } else {
-            println!("{} vs {}: {report}", args.test.display(), args.reference.display());
+            out!("{} vs {}: {report}", args.test.display(), args.reference.display());
         }
         Ok(report.same())
     };
@@ -256,38 +273,46 @@ fn run_bench(args: BenchArgs) -> Result<(), Error> {
     } else {
         Some(Arc::new(GpuContext::new(args.device.as_deref())?))
     };
-    println!("Machine: {}", machine_description());
+    out!("Machine: {}", machine_description());
     if let Some(g) = &gpu {
-        println!("GPU: {}", g.name());
+        out!("GPU: {}", g.name());
     }
-    println!(
+    out!(
         "Settings: {}×{}, {} timed spp after 1 warm-up spp, seed 0, unlimited depth\n",
-        args.width, args.height, args.spp
+        args.width,
+        args.height,
+        args.spp
     );
-    println!("| scene | triangles | load s | BVH build s | BVH nodes | SAH cost | features |");
-    println!("|---|---:|---:|---:|---:|---:|---|");
+    out!("| scene | triangles | load s | BVH build s | BVH nodes | SAH cost | features |");
+    out!("|---|---:|---:|---:|---:|---:|---|");
     let mut flats = Vec::new();
     for name in &args.scenes {
         let start = std::time::Instant::now();
         let scene = load_bench_scene(name, &root, &args.assets)?;
         let load = start.elapsed().as_secs_f64();
         let (flat, p) = prepare(name, &scene, args.width as f64 / args.height as f64, load)?;
-        println!(
+        out!(
             "| {} | {} | {:.3} | {:.3} | {} | {:.2} | {} |",
-            p.scene, p.triangles, p.load_seconds, p.bvh_seconds, p.bvh_nodes, p.sah_cost, p.features
+            p.scene,
+            p.triangles,
+            p.load_seconds,
+            p.bvh_seconds,
+            p.bvh_nodes,
+            p.sah_cost,
+            p.features
         );
         flats.push((name.clone(), flat));
     }
     if args.prep_only {
         return Ok(());
     }
-    println!("\n| scene | backend | kernel | kernel build s | spp | seconds | Msamples/s | Mrays/s |");
-    println!("|---|---|---|---:|---:|---:|---:|---:|");
+    out!("\n| scene | backend | kernel | kernel build s | spp | seconds | Msamples/s | Mrays/s |");
+    out!("|---|---|---|---:|---:|---:|---:|---:|");
     let settings =
         RenderSettings { width: args.width, height: args.height, spp: args.spp, ..RenderSettings::default() };
     for (name, flat) in &flats {
         for r in bench_scene(name, flat, &settings, gpu.as_ref(), !args.no_cpu)? {
-            println!(
+            out!(
                 "| {} | {} | {} | {} | {} | {:.2} | {:.3} | {:.2} |",
                 r.scene,
                 r.backend,
@@ -306,12 +331,12 @@ fn run_bench(args: BenchArgs) -> Result<(), Error> {
 fn run_info() -> Result<(), Error> {
     let adapters = enumerate_adapters();
     if adapters.is_empty() {
-        println!("no Vulkan adapters found (render falls back to the CPU backend)");
+        out!("no Vulkan adapters found (render falls back to the CPU backend)");
     }
     for (i, a) in adapters.iter().enumerate() {
-        println!("[{i}] {}", describe_adapter(a));
+        out!("[{i}] {}", describe_adapter(a));
     }
-    println!("CPU reference: {} threads", rayon::current_num_threads());
+    out!("CPU reference: {} threads", rayon::current_num_threads());
     Ok(())
 }
 

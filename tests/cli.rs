@@ -190,3 +190,20 @@ fn info_lists_adapters() {
         assert!(stdout.contains("driver:") && stdout.contains("max storage buffer binding"), "{stdout}");
     }
 }
+
+#[test]
+fn a_closed_stdout_ends_quietly() {
+    // The reader goes away before `info` writes (it enumerates Vulkan adapters first, tens
+    // of milliseconds): no panic, and status 141 (SIGPIPE's) — or 0 if it won the race.
+    let mut child = pathlight()
+        .arg("info")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(matches!(out.status.code(), Some(141) | Some(0)), "status {:?}: {stderr}", out.status);
+}
