@@ -22,15 +22,7 @@ fn checker_alpha_png() -> String {
             rgba.extend_from_slice(&[255, 255, 255, if (i + j) % 2 == 0 { 255 } else { 0 }]);
         }
     }
-    let mut bytes = Vec::new();
-    {
-        let mut encoder = png::Encoder::new(&mut bytes, 8, 8);
-        encoder.set_color(png::ColorType::Rgba);
-        encoder.set_depth(png::BitDepth::Eight);
-        let mut writer = encoder.write_header().unwrap();
-        writer.write_image_data(&rgba).unwrap();
-    }
-    format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes))
+    common::png_data_uri(8, 8, &rgba)
 }
 
 /// A white floor (y = 0); over x ∈ [−1.5, −0.5] a MASK quad at y = 0.5 with the checker

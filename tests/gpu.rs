@@ -391,22 +391,13 @@ fn hdr_environment_same_seed_agrees() {
 
 /// A 4×3 RGBA image of distinct colours, PNG-encoded as a data URI.
 fn png_data_uri() -> String {
-    use base64::Engine;
     let mut rgba = Vec::new();
     for j in 0..3u8 {
         for i in 0..4u8 {
             rgba.extend_from_slice(&[40 + 60 * i, 30 + 90 * j, 200 - 50 * i, 255 - 40 * j]);
         }
     }
-    let mut bytes = Vec::new();
-    {
-        let mut encoder = png::Encoder::new(&mut bytes, 4, 3);
-        encoder.set_color(png::ColorType::Rgba);
-        encoder.set_depth(png::BitDepth::Eight);
-        let mut writer = encoder.write_header().unwrap();
-        writer.write_image_data(&rgba).unwrap();
-    }
-    format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes))
+    common::png_data_uri(4, 3, &rgba)
 }
 
 /// Three textured quads side by side, each with another sampler: REPEAT + bilinear,

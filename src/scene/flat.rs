@@ -298,8 +298,23 @@ impl FlatScene {
         }
     }
 
-    /// The nearest hit of `ray`, alpha-tested when the scene has alpha (`alpha_seed`, see
-    /// [`super::texture::alpha_accepts`]).
+    /// The any-hit test of traversal: a hit counts unless its material's alpha mode
+    /// discards it for this ray (`alpha_seed`, see [`super::texture::alpha_accepts`]).
+    fn alpha_filter(&self, alpha_seed: u32) -> impl Fn(u32, &crate::geometry::TriangleHit) -> bool + '_ {
+        let arrays = self.texture_arrays();
+        move |i, h| {
+            super::texture::alpha_accepts(
+                &self.materials,
+                &self.triangles,
+                &arrays,
+                i,
+                Vec3::new(h.b0, h.b1, h.b2),
+                alpha_seed,
+            )
+        }
+    }
+
+    /// The nearest hit of `ray`, alpha-tested when the scene has alpha.
     pub fn intersect_closest(
         &self,
         ray: &crate::geometry::Ray,
@@ -308,17 +323,12 @@ impl FlatScene {
         if !self.features.alpha {
             return crate::bvh::intersect_closest(&self.nodes, &self.triangles, ray);
         }
-        let arrays = self.texture_arrays();
-        crate::bvh::intersect_closest_filtered(&self.nodes, &self.triangles, ray, |i, h| {
-            super::texture::alpha_accepts(
-                &self.materials,
-                &self.triangles,
-                &arrays,
-                i,
-                Vec3::new(h.b0, h.b1, h.b2),
-                alpha_seed,
-            )
-        })
+        crate::bvh::intersect_closest_filtered(
+            &self.nodes,
+            &self.triangles,
+            ray,
+            self.alpha_filter(alpha_seed),
+        )
     }
 
     /// Is anything hit along `ray` (shadow rays), alpha-tested like [`Self::intersect_closest`].
@@ -326,17 +336,7 @@ impl FlatScene {
         if !self.features.alpha {
             return crate::bvh::intersect_any(&self.nodes, &self.triangles, ray);
         }
-        let arrays = self.texture_arrays();
-        crate::bvh::intersect_any_filtered(&self.nodes, &self.triangles, ray, |i, h| {
-            super::texture::alpha_accepts(
-                &self.materials,
-                &self.triangles,
-                &arrays,
-                i,
-                Vec3::new(h.b0, h.b1, h.b2),
-                alpha_seed,
-            )
-        })
+        crate::bvh::intersect_any_filtered(&self.nodes, &self.triangles, ray, self.alpha_filter(alpha_seed))
     }
 
     /// The arrays light sampling reads.

@@ -187,3 +187,17 @@ pub fn gpu() -> Option<std::sync::Arc<pathlight::gpu::GpuContext>> {
         }
     }
 }
+
+/// An 8-bit RGBA image as a PNG `data:` URI (for glTF documents built inside tests).
+pub fn png_data_uri(width: u32, height: u32, rgba: &[u8]) -> String {
+    use base64::Engine;
+    let mut bytes = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut bytes, width, height);
+        encoder.set_color(png::ColorType::Rgba);
+        encoder.set_depth(png::BitDepth::Eight);
+        let mut writer = encoder.write_header().unwrap();
+        writer.write_image_data(rgba).unwrap();
+    }
+    format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes))
+}
