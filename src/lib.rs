@@ -25,4 +25,4 @@ pub mod scene;
 pub mod stats;
 
 pub use error::{Error, Result};
-pub use render::{render_progressive, Backend, RenderSettings, RenderStats};
+pub use render::{render_progressive, render_progressive_with, Backend, RenderSettings, RenderStats};

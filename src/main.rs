@@ -187,6 +187,19 @@ struct RenderArgs {
     /// A constant environment of this linear radiance, e.g. 0.5,0.5,0.5.
     #[arg(long, value_parser = parse_rgb)]
     background: Option<glam::Vec3>,
+    /// A reference image (EXR, same size): log RMSE and relMSE against it at 1, 2, 4, … spp.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Write the convergence log (spp, seconds, RMSE, relMSE, predicted relMSE) to this
+    /// .csv or .json file.
+    #[arg(long)]
+    log: Option<PathBuf>,
+    /// Stop after the pass that passes this many seconds (the image keeps what it has).
+    #[arg(long)]
+    time_limit: Option<f64>,
+    /// Stop once the relMSE predicted from the image's own variance is at most this.
+    #[arg(long)]
+    target_error: Option<f64>,
 }
 
 /// Parses `R,G,B` (three finite, non-negative numbers).
@@ -363,6 +376,17 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     for o in &args.output {
         check_output(o)?;
     }
+    if let Some(log) = &args.log {
+        match log.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+            Some("csv") | Some("json") => {}
+            _ => return Err(Error::Settings(format!("{}: --log must end in .csv or .json", log.display()))),
+        }
+    }
+    if args.time_limit.is_some_and(|t| !(t > 0.0 && t.is_finite()))
+        || args.target_error.is_some_and(|e| !(e > 0.0 && e.is_finite()))
+    {
+        return Err(Error::Settings("--time-limit and --target-error must be positive and finite".into()));
+    }
     let options = LoadOptions { allow_any_path: args.allow_any_path };
     let (mut scene, warnings) = pathlight::scene::load_with(&args.scene, &options)?;
     for w in &warnings {
@@ -469,10 +493,60 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         )
         .expect("static template"),
     );
-    let stats = pathlight::render_progressive(backend.as_mut(), args.spp, &stop, |done| {
-        bar.set_position(done as u64)
+    let reference = match &args.reference {
+        Some(path) => {
+            let image = pathlight::film::LinearImage::read(path)?;
+            if (image.width, image.height) != (width as usize, height as usize) {
+                return Err(Error::Settings(format!(
+                    "{}: the reference is {}×{}, the render {width}×{height}",
+                    path.display(),
+                    image.width,
+                    image.height
+                )));
+            }
+            Some(image)
+        }
+        None => None,
+    };
+    // Checkpoints: a log row at 1, 2, 4, … spp when asked for one, and the predicted error
+    // after every pass when --target-error may stop the render.
+    let mut rows: Vec<pathlight::film::ConvergenceRow> = Vec::new();
+    let logging = reference.is_some() || args.log.is_some();
+    let stats = pathlight::render_progressive_with(backend.as_mut(), args.spp, &stop, |b, done, seconds| {
+        bar.set_position(done as u64);
+        let mut stop_now = args.time_limit.is_some_and(|t| seconds >= t);
+        let log_here = logging && (done.is_power_of_two() || done == args.spp);
+        if log_here || args.target_error.is_some() {
+            let image = pathlight::film::LinearImage::from_film(&b.film()?);
+            let row = pathlight::film::ConvergenceRow::new(&image, reference.as_ref(), done, seconds);
+            stop_now |= args.target_error.is_some_and(|e| row.predicted_relmse <= e);
+            if log_here || (stop_now && logging) {
+                if reference.is_some() {
+                    bar.suspend(|| {
+                        eprintln!(
+                            "{done:>6} spp {seconds:>9.3} s  RMSE {:.5}  relMSE {:.5}  predicted relMSE {:.5}",
+                            row.rmse.unwrap_or(f64::NAN),
+                            row.relmse.unwrap_or(f64::NAN),
+                            row.predicted_relmse
+                        )
+                    });
+                }
+                rows.push(row);
+            }
+        }
+        Ok(stop_now)
     })?;
     bar.finish_and_clear();
+    if let Some(log) = &args.log {
+        let text = if log.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
+            format!("{:#}\n", pathlight::film::convergence_json(&rows))
+        } else {
+            pathlight::film::convergence_csv(&rows)
+        };
+        pathlight::film::write_atomically(log, |tmp| {
+            std::fs::write(tmp, &text).map_err(|e| Error::io(log, e))
+        })?;
+    }
     let film = backend.film()?;
     let rejected = film.total_rejected();
     let meta = RenderMetadata {

@@ -85,6 +85,22 @@ pub fn render_progressive(
     stop: &AtomicBool,
     mut progress: impl FnMut(u32),
 ) -> Result<RenderStats> {
+    render_progressive_with(backend, spp, stop, |_, done, _| {
+        progress(done);
+        Ok(false)
+    })
+}
+
+/// [`render_progressive`] with a checkpoint after every pass: `checkpoint(backend, done,
+/// seconds)` may read the film and returns `true` to stop (a time limit or an error target
+/// reached). Passes end exactly at 1, 2, 4, 8, … samples per pixel, so a convergence log can
+/// be taken there; the image does not depend on how the work is split.
+pub fn render_progressive_with(
+    backend: &mut dyn Backend,
+    spp: u32,
+    stop: &AtomicBool,
+    mut checkpoint: impl FnMut(&mut dyn Backend, u32, f64) -> Result<bool>,
+) -> Result<RenderStats> {
     let start = Instant::now();
     let mut done = 0u32;
     let mut pass = 1u32;
@@ -92,11 +108,15 @@ pub fn render_progressive(
         if stop.load(Ordering::Relaxed) {
             return Ok(RenderStats { spp: done, seconds: start.elapsed().as_secs_f64(), interrupted: true });
         }
-        let n = pass.min(spp - done);
+        let next_power_of_two = (done + 1).next_power_of_two();
+        let n = pass.min(spp - done).min(next_power_of_two - done);
         let t = Instant::now();
         backend.render(done, n)?;
         done += n;
-        progress(done);
+        if checkpoint(backend, done, start.elapsed().as_secs_f64())? {
+            // Stopped by the caller's own criterion: not an interruption.
+            return Ok(RenderStats { spp: done, seconds: start.elapsed().as_secs_f64(), interrupted: false });
+        }
         let per_sample = t.elapsed().as_secs_f64() / n as f64;
         // Grow at most 2× per pass so one slow pass cannot overshoot badly.
         let ideal = if per_sample > 0.0 { TARGET_PASS_SECONDS / per_sample } else { f64::MAX };

@@ -3,6 +3,7 @@
 //! WGSL twin of the accumulation: `film_add_sample` in `shaders/film.wgsl`.
 
 pub mod compare;
+mod convergence;
 mod diff_image;
 mod exr_io;
 mod image;
@@ -12,6 +13,7 @@ mod tonemap;
 use glam::Vec3;
 
 pub use compare::{compare_images, CompareOptions, CompareReport};
+pub use convergence::{convergence_csv, convergence_json, error_against, predicted_relmse, ConvergenceRow};
 pub use diff_image::{write_diff_png, write_zmap_exr};
 pub use exr_io::{read_exr, write_exr, ExrImage, RenderMetadata};
 pub use image::{srgb_to_linear, LinearImage};
