@@ -29,6 +29,7 @@
 
 use std::fmt;
 
+use super::convergence::error_against;
 use super::image::LinearImage;
 use super::linear_to_srgb;
 use crate::error::{Error, Result};
@@ -213,25 +214,23 @@ pub fn compare_images(
 }
 
 fn metrics(test: &LinearImage, reference: &LinearImage) -> Metrics {
-    let (mut se, mut rel, mut ae, mut max_abs) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let (rmse, relmse) = error_against(test, reference);
+    let (mut ae, mut max_abs) = (0.0f64, 0.0f64);
     let (mut sum_t, mut sum_r) = ([0.0f64; 3], [0.0f64; 3]);
     for (t, r) in test.rgb.iter().zip(&reference.rgb) {
         for c in 0..3 {
             let (t, r) = (t[c] as f64, r[c] as f64);
-            let d = t - r;
-            se += d * d;
-            rel += d * d / (r * r + 1e-2);
-            ae += d.abs();
-            max_abs = max_abs.max(d.abs());
+            ae += (t - r).abs();
+            max_abs = max_abs.max((t - r).abs());
             sum_t[c] += t;
             sum_r[c] += r;
         }
     }
     let n = (test.rgb.len() * 3) as f64;
-    let mse = se / n;
+    let mse = rmse * rmse;
     Metrics {
-        rmse: mse.sqrt(),
-        relmse: rel / n,
+        rmse,
+        relmse,
         mae: ae / n,
         psnr: if mse > 0.0 { -10.0 * mse.log10() } else { f64::INFINITY },
         max_abs,

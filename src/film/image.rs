@@ -5,6 +5,7 @@ use std::path::Path;
 
 use super::{read_exr, Film};
 use crate::error::{Error, Result};
+use crate::scene::texture::srgb_decode;
 
 /// A linear RGB image and, if known, the estimated variance of each pixel's mean.
 #[derive(Clone, Debug, PartialEq)]
@@ -130,7 +131,7 @@ fn read_png_image(path: &Path) -> Result<LinearImage> {
     let max = if wide { 65535.0 } else { 255.0 };
     let sample = |i: usize| -> f32 {
         let v = if wide { u16::from_be_bytes([buf[2 * i], buf[2 * i + 1]]) as f32 } else { buf[i] as f32 };
-        srgb_to_linear(v / max)
+        srgb_decode(v / max)
     };
     let rgb = (0..width * height)
         .map(|p| {
@@ -145,15 +146,6 @@ fn read_png_image(path: &Path) -> Result<LinearImage> {
     Ok(LinearImage { width, height, rgb, variance: None, spp: None })
 }
 
-/// The inverse sRGB transfer function (IEC 61966-2-1), exact.
-pub fn srgb_to_linear(v: f32) -> f32 {
-    if v <= 0.040_45 {
-        v / 12.92
-    } else {
-        ((v + 0.055) / 1.055).powf(2.4)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -163,7 +155,7 @@ mod tests {
     fn srgb_round_trips() {
         for i in 0..=255 {
             let v = i as f32 / 255.0;
-            assert!((linear_to_srgb(srgb_to_linear(v)) - v).abs() < 1e-5, "{v}");
+            assert!((linear_to_srgb(srgb_decode(v)) - v).abs() < 1e-5, "{v}");
         }
     }
 }
