@@ -419,11 +419,8 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     settings.validate()?;
     let view = ViewSettings { camera: args.camera, aspect: width as f64 / height as f64 };
     let flat = FlatScene::build(&scene, &view)?;
-    if flat.default_environment {
-        eprintln!(
-            "warning: {}: the scene has no lights and no --env or --background was given; lighting it with a constant white background of radiance 1 (see README, \"Lights\")",
-            args.scene.display()
-        );
+    for w in flat.warnings() {
+        eprintln!("warning: {}: {w}", args.scene.display());
     }
     eprintln!(
         "{}: {} triangles, {} lights, BVH {} nodes built in {:.3} s (SAH cost {:.2}), features: {}",

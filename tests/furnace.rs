@@ -51,6 +51,8 @@ fn environment_furnace(background: Option<glam::Vec3>) {
     .unwrap();
     // Without a background the scene has no light: the documented default lights it.
     assert_eq!(flat.default_environment, background.is_none());
+    // ... and says so.
+    assert_eq!(flat.warnings().iter().any(|w| w.contains("no lights")), background.is_none());
     let exact = background.unwrap_or(pathlight::scene::DEFAULT_BACKGROUND);
     let settings = RenderSettings { width: w, height: h, spp, seed: 3, ..RenderSettings::default() };
     let film = common::render(&mut CpuBackend::new(&flat, &settings), spp);

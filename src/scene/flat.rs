@@ -288,6 +288,26 @@ impl FlatScene {
         })
     }
 
+    /// What flattening decided on the caller's behalf and should be told: a default sky for a
+    /// scene with no light, images halved to fit the texel budget.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.default_environment {
+            out.push(
+                "the scene has no lights and no --env or --background was given; lighting it with a constant white background of radiance 1 (see README, \"Environment light\")"
+                    .into(),
+            );
+        }
+        if self.textures.downscaled > 0 {
+            out.push(format!(
+                "the textures exceed {} MiB; every image was halved {} time(s) to fit",
+                super::texture::TEXEL_BUDGET_BYTES >> 20,
+                self.textures.downscaled
+            ));
+        }
+        out
+    }
+
     /// The arrays a texture lookup reads.
     pub fn texture_arrays(&self) -> TextureArrays<'_> {
         TextureArrays {
