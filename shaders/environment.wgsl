@@ -54,12 +54,12 @@ fn environment_uv(d: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(u, atan2_polynomial(sin_theta, d.y) * INV_PI);
 }
 
-// The unit direction (map frame) of (u, v) in xyz, and sin θ in w.
-fn environment_direction(uv: vec2<f32>) -> vec4<f32> {
+// The unit direction (map frame) of (u, v).
+fn environment_direction(uv: vec2<f32>) -> vec3<f32> {
     let phi = 2.0 * PI * uv.x;
     let theta = PI * uv.y;
     let sin_theta = sin(theta);
-    return vec4<f32>(sin_theta * sin(phi), cos(theta), -sin_theta * cos(phi), sin_theta);
+    return vec3<f32>(sin_theta * sin(phi), cos(theta), -sin_theta * cos(phi));
 }
 
 fn texel_index(uv: vec2<f32>) -> u32 {
@@ -122,5 +122,5 @@ fn sample_environment(u: vec2<f32>) -> EnvironmentSample {
         return EnvironmentSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false);
     }
     let pdf = t.w / (2.0 * PI * PI * sin_theta);
-    return EnvironmentSample(map_to_world(local.xyz), t.xyz, pdf, true);
+    return EnvironmentSample(map_to_world(local), t.xyz, pdf, true);
 }

@@ -231,12 +231,12 @@ pub fn environment_uv(d: Vec3) -> Vec2 {
     Vec2::new(u, atan2_polynomial(sin_theta, d.y) * std::f32::consts::FRAC_1_PI)
 }
 
-/// The unit direction (map frame) of (u, v), and sin θ.
-pub fn environment_direction(uv: Vec2) -> (Vec3, f32) {
+/// The unit direction (map frame) of (u, v).
+pub fn environment_direction(uv: Vec2) -> Vec3 {
     let phi = 2.0 * std::f32::consts::PI * uv.x;
     let theta = std::f32::consts::PI * uv.y;
     let sin_theta = theta.sin();
-    (Vec3::new(sin_theta * phi.sin(), theta.cos(), -sin_theta * phi.cos()), sin_theta)
+    Vec3::new(sin_theta * phi.sin(), theta.cos(), -sin_theta * phi.cos())
 }
 
 /// The texel under (u, v).
@@ -294,7 +294,7 @@ pub fn sample_environment(
     let du = (u.x - cdf[row + i]) / (cdf[row + i + 1] - cdf[row + i]).max(f32::MIN_POSITIVE);
     let uv =
         Vec2::new((i as f32 + du.clamp(0.0, 1.0)) / w as f32, (j as f32 + dv.clamp(0.0, 1.0)) / h as f32);
-    let (local, _) = environment_direction(uv);
+    let local = environment_direction(uv);
     let t = texels[j * w + i];
     // sin θ of the direction itself, exactly as `environment_lookup` computes it, so MIS sees
     // the same density from both techniques.
@@ -323,7 +323,7 @@ mod tests {
         assert!((uv(-Vec3::Y).y - 1.0).abs() < 1e-5);
         for k in 0..100 {
             let uv0 = Vec2::new((k as f32 * 0.37).fract(), 0.01 + 0.98 * (k as f32 * 0.61).fract());
-            let (d, _) = environment_direction(uv0);
+            let d = environment_direction(uv0);
             assert!((environment_uv(d) - uv0).length() < 1e-4, "{uv0}");
         }
     }
