@@ -32,3 +32,6 @@
 @group(0) @binding(15) var<storage, read> texture_bindings: array<TextureBinding>;
 @group(0) @binding(16) var<storage, read> texcoords: array<TriangleTexcoords>;
 @group(0) @binding(17) var<storage, read> tangents: array<TriangleTangents>;
+// The sheen lobe's directional albedo E(μ, roughness), SHEEN_ALBEDO_SIZE² entries
+// (src/bsdf/sheen.rs computes it); one unused element without sheen.
+@group(0) @binding(18) var<storage, read> sheen_albedo_table: array<f32>;

@@ -243,7 +243,65 @@ fn thin_transmission_pdf(wo: vec3<f32>, wi: vec3<f32>, alpha: f32) -> f32 {
     return reflection_pdf(wo, mirror_z(wi), alpha);
 }
 
+// ---- sheen.rs
+
+const MIN_SHEEN_ROUGHNESS: f32 = 0.07;
+const SHEEN_ALBEDO_SIZE: u32 = 32u;
+
+fn sheen_alpha(roughness: f32) -> f32 {
+    let r = clamp(roughness, MIN_SHEEN_ROUGHNESS, 1.0);
+    return r * r;
+}
+
+fn charlie_d(cos_theta_h: f32, alpha: f32) -> f32 {
+    let inv_alpha = 1.0 / alpha;
+    let sin2 = max(1.0 - cos_theta_h * cos_theta_h, 0.0);
+    return (2.0 + inv_alpha) * pow(sin2, 0.5 * inv_alpha) * (0.5 * INV_PI);
+}
+
+fn ashikhmin_v(cos_o: f32, cos_i: f32) -> f32 {
+    let s = cos_i + cos_o - cos_i * cos_o;
+    return select(0.0, 0.25 / s, s > 0.0);
+}
+
+fn sheen_eval(wo: vec3<f32>, wi: vec3<f32>, alpha: f32) -> f32 {
+    if (wo.z <= 0.0 || wi.z <= 0.0) {
+        return 0.0;
+    }
+    let h = try_normalize(wo + wi);
+    if (h.w == 0.0) {
+        return 0.0;
+    }
+    return charlie_d(h.z, alpha) * ashikhmin_v(wo.z, wi.z);
+}
+
+fn sheen_albedo(mu: f32, roughness: f32) -> f32 {
+    let last = f32(SHEEN_ALBEDO_SIZE - 1u);
+    let x = clamp(mu, 0.0, 1.0) * last;
+    let y = clamp(roughness, 0.0, 1.0) * last;
+    let x0f = min(floor(x), last - 1.0);
+    let y0f = min(floor(y), last - 1.0);
+    let tx = x - x0f;
+    let ty = y - y0f;
+    let x0 = u32(x0f);
+    let y0 = u32(y0f);
+    let row0 = y0 * SHEEN_ALBEDO_SIZE;
+    let row1 = row0 + SHEEN_ALBEDO_SIZE;
+    let top = sheen_albedo_table[row0 + x0] * (1.0 - tx) + sheen_albedo_table[row0 + x0 + 1u] * tx;
+    let bottom = sheen_albedo_table[row1 + x0] * (1.0 - tx) + sheen_albedo_table[row1 + x0 + 1u] * tx;
+    return top * (1.0 - ty) + bottom * ty;
+}
+
+fn sheen_albedo_scaling(sheen_color: vec3<f32>, roughness: f32, mu_o: f32, mu_i: f32) -> f32 {
+    let c = max_element(sheen_color);
+    let e = max(sheen_albedo(mu_o, roughness), sheen_albedo(mu_i, roughness));
+    return clamp(1.0 - c * e, 0.0, 1.0);
+}
+
 // ---- gltf.rs
+
+const CLEARCOAT_F0: f32 = 0.04;
+const COAT_MIN_BASE_COSINE: f32 = 1e-6;
 
 struct GltfBsdf {
     base_color: vec3<f32>,
@@ -259,6 +317,15 @@ struct GltfBsdf {
     p_reflect: f32,
     p_diffuse: f32,
     p_transmit: f32,
+    coat: f32,
+    coat_alpha: f32,
+    coat_frame: Frame,
+    coat_transmittance: f32,
+    sheen_color: vec3<f32>,
+    sheen_roughness: f32,
+    sheen_alpha: f32,
+    p_coat: f32,
+    p_sheen: f32,
 }
 
 struct BsdfSample {
@@ -279,15 +346,18 @@ fn lobe_weight(present: bool, estimate: f32) -> f32 {
     return select(0.0, max(estimate, LOBE_SELECTION_FLOOR), present);
 }
 
-fn gltf_bsdf_new(m: Material, cos_theta_o: f32, front_face: bool) -> GltfBsdf {
+fn gltf_bsdf_new(m: Material, wo: vec3<f32>, front_face: bool, coat_normal: vec3<f32>) -> GltfBsdf {
+    let cos_theta_o = wo.z;
     let ior = m.ior;
     // Transmission is compiled out of scenes that have none (FEATURE_TRANSMISSION = false);
-    // then `transmission` reads as 0 and every transmissive branch below is dead code.
+    // then `transmission` reads as 0 and every transmissive branch below is dead code. The
+    // same holds for the coat and the sheen.
     let transmission = select(0.0, m.transmission, FEATURE_TRANSMISSION);
     let volume = FEATURE_VOLUME && (m.flags & MATERIAL_VOLUME) != 0u && transmission > 0.0;
     let eta = select(ior, 1.0 / ior, volume && !front_face);
     let r = (ior - 1.0) / (ior + 1.0);
     let r0 = r * r;
+    let outside = !volume || front_face;
     var b: GltfBsdf;
     b.base_color = m.base_color;
     b.metallic = m.metallic;
@@ -299,23 +369,87 @@ fn gltf_bsdf_new(m: Material, cos_theta_o: f32, front_face: bool) -> GltfBsdf {
     b.eta = eta;
     b.volume = volume;
     b.transmission_is_delta = m.alpha_roughness == 0.0 || (volume && eta == 1.0);
+    b.coat_transmittance = 1.0;
+    var coat_fresnel_o = 0.0;
+    if (FEATURE_CLEARCOAT) {
+        b.coat_frame = frame_from_z(coat_normal);
+        let coat_cos_o = frame_to_local(b.coat_frame, wo).z;
+        b.coat = select(0.0, clamp(m.clearcoat, 0.0, 1.0), outside && coat_cos_o > 0.0);
+        b.coat_alpha = alpha_from_roughness(m.clearcoat_roughness);
+        coat_fresnel_o = fresnel_schlick(vec3<f32>(CLEARCOAT_F0), 1.0, coat_cos_o).x;
+        b.coat_transmittance = 1.0 - b.coat * coat_fresnel_o;
+    }
+    var sheen_reflectance = 0.0;
+    if (FEATURE_SHEEN) {
+        b.sheen_color = select(vec3<f32>(0.0), max(m.sheen_color, vec3<f32>(0.0)), outside);
+        b.sheen_roughness = m.sheen_roughness;
+        b.sheen_alpha = sheen_alpha(m.sheen_roughness);
+        if (has_sheen(b)) {
+            sheen_reflectance = max_element(b.sheen_color) * sheen_albedo(cos_theta_o, b.sheen_roughness);
+        }
+    }
     let f = max_element(dielectric_fresnel(b, cos_theta_o));
     let dielectric = 1.0 - b.metallic;
     let color = max_element(b.base_color);
+    let below = b.coat_transmittance * max(1.0 - sheen_reflectance, 0.0);
     let reflect_present = FEATURE_SPECULAR && (b.metallic > 0.0 || b.specular_factor > 0.0);
     let diffuse_present = dielectric * (1.0 - b.transmission) > 0.0 && color > 0.0;
     let transmit_present = dielectric * b.transmission > 0.0 && color > 0.0;
-    let w_r = lobe_weight(reflect_present, b.metallic + dielectric * f);
-    let w_d = lobe_weight(diffuse_present, dielectric * (1.0 - b.transmission) * (1.0 - f) * color);
-    let w_t = lobe_weight(transmit_present, dielectric * b.transmission * (1.0 - f) * color);
-    let total = w_r + w_d + w_t;
+    let w_c = lobe_weight(b.coat > 0.0, b.coat * coat_fresnel_o);
+    let w_s = lobe_weight(has_sheen(b), b.coat_transmittance * sheen_reflectance);
+    let w_r = lobe_weight(reflect_present, below * (b.metallic + dielectric * f));
+    let w_d = lobe_weight(diffuse_present, below * dielectric * (1.0 - b.transmission) * (1.0 - f) * color);
+    let w_t = lobe_weight(transmit_present, below * dielectric * b.transmission * (1.0 - f) * color);
+    let total = w_c + w_s + w_r + w_d + w_t;
     // `b` is zero-initialised: with no lobe present every probability stays 0.
     if (total > 0.0) {
+        b.p_coat = w_c / total;
+        b.p_sheen = w_s / total;
         b.p_reflect = w_r / total;
         b.p_diffuse = w_d / total;
         b.p_transmit = w_t / total;
     }
     return b;
+}
+
+fn has_sheen(b: GltfBsdf) -> bool {
+    return FEATURE_SHEEN && max_element(b.sheen_color) > 0.0;
+}
+
+fn sheen_scaling(b: GltfBsdf, mu_o: f32, mu_i: f32) -> f32 {
+    if (has_sheen(b)) {
+        return sheen_albedo_scaling(b.sheen_color, b.sheen_roughness, mu_o, mu_i);
+    }
+    return 1.0;
+}
+
+fn coat_eval(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    if (!FEATURE_CLEARCOAT || b.coat <= 0.0 || b.coat_alpha == 0.0 || wi.z < COAT_MIN_BASE_COSINE) {
+        return 0.0;
+    }
+    let wo_c = frame_to_local(b.coat_frame, wo);
+    let wi_c = frame_to_local(b.coat_frame, wi);
+    if (wo_c.z <= 0.0 || wi_c.z <= 0.0) {
+        return 0.0;
+    }
+    let h = reflection_half_vector(wo_c, wi_c);
+    if (h.w == 0.0) {
+        return 0.0;
+    }
+    let fresnel = fresnel_schlick(vec3<f32>(CLEARCOAT_F0), 1.0, dot(wo_c, h.xyz)).x;
+    return b.coat * fresnel * reflection_eval(wo_c, wi_c, b.coat_alpha) * wi_c.z / wi.z;
+}
+
+fn coat_pdf(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    if (!FEATURE_CLEARCOAT || b.p_coat <= 0.0 || b.coat_alpha == 0.0 || wi.z < COAT_MIN_BASE_COSINE) {
+        return 0.0;
+    }
+    let wo_c = frame_to_local(b.coat_frame, wo);
+    let wi_c = frame_to_local(b.coat_frame, wi);
+    if (wo_c.z <= 0.0 || wi_c.z <= 0.0) {
+        return 0.0;
+    }
+    return reflection_pdf(wo_c, wi_c, b.coat_alpha);
 }
 
 fn dielectric_fresnel(b: GltfBsdf, cos_theta: f32) -> vec3<f32> {
@@ -330,13 +464,27 @@ fn metal_fresnel(b: GltfBsdf, cos_theta: f32) -> vec3<f32> {
 }
 
 fn has_non_delta(b: GltfBsdf) -> bool {
-    return b.p_diffuse > 0.0 || (b.p_reflect > 0.0 && b.alpha > 0.0) || (b.p_transmit > 0.0 && !b.transmission_is_delta);
+    return b.p_diffuse > 0.0 || b.p_sheen > 0.0 || (b.p_coat > 0.0 && b.coat_alpha > 0.0)
+        || (b.p_reflect > 0.0 && b.alpha > 0.0) || (b.p_transmit > 0.0 && !b.transmission_is_delta);
 }
 
 fn gltf_bsdf_eval(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     if (wo.z <= 0.0) {
         return vec3<f32>(0.0);
     }
+    let base = base_eval(b, wo, wi);
+    if (wi.z > 0.0) {
+        var sheen = vec3<f32>(0.0);
+        if (has_sheen(b)) {
+            sheen = b.sheen_color * sheen_eval(wo, wi, b.sheen_alpha);
+        }
+        let below = sheen + base * sheen_scaling(b, wo.z, wi.z);
+        return vec3<f32>(coat_eval(b, wo, wi)) + b.coat_transmittance * below;
+    }
+    return base * (b.coat_transmittance * sheen_scaling(b, wo.z, 0.0));
+}
+
+fn base_eval(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     let dielectric = 1.0 - b.metallic;
     if (wi.z > 0.0) {
         let h = reflection_half_vector(wo, wi);
@@ -378,7 +526,7 @@ fn gltf_bsdf_pdf(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
         return 0.0;
     }
     if (wi.z > 0.0) {
-        var p = b.p_diffuse * lambert_pdf(wi);
+        var p = (b.p_diffuse + b.p_sheen) * lambert_pdf(wi) + b.p_coat * coat_pdf(b, wo, wi);
         if (FEATURE_SPECULAR && b.alpha > 0.0 && b.p_reflect > 0.0) {
             p += b.p_reflect * reflection_pdf(wo, wi, b.alpha);
         }
@@ -399,17 +547,40 @@ fn gltf_bsdf_sample(b: GltfBsdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> Bs
     }
     let dielectric = 1.0 - b.metallic;
     var wi: vec3<f32>;
-    if (u_lobe < b.p_reflect) {
+    // Lobes in the order coat, sheen, reflection, diffuse, transmission along u_lobe.
+    let u_l = u_lobe - b.p_coat - b.p_sheen;
+    if (FEATURE_CLEARCOAT && u_l < -b.p_sheen) {
+        let wo_c = frame_to_local(b.coat_frame, wo);
+        if (b.coat_alpha == 0.0) {
+            let wm = frame_from_local(b.coat_frame, vec3<f32>(-wo_c.x, -wo_c.y, wo_c.z));
+            if (wm.z <= 0.0) {
+                return no_bsdf_sample();
+            }
+            let f = b.coat * fresnel_schlick(vec3<f32>(CLEARCOAT_F0), 1.0, wo_c.z).x;
+            return BsdfSample(wm, vec3<f32>(f / b.p_coat), b.p_coat, true, true, 1.0);
+        }
+        let s = reflection_sample(wo_c, b.coat_alpha, u);
+        if (s.w == 0.0) {
+            return no_bsdf_sample();
+        }
+        wi = frame_from_local(b.coat_frame, s.xyz);
+        if (wi.z <= 0.0) {
+            return no_bsdf_sample();
+        }
+    } else if (u_l < 0.0) {
+        wi = lambert_sample(u);
+    } else if (u_l < b.p_reflect) {
         if (b.alpha == 0.0) {
             let f = dielectric * dielectric_fresnel(b, wo.z) + b.metallic * metal_fresnel(b, wo.z);
-            return BsdfSample(vec3<f32>(-wo.x, -wo.y, wo.z), f / b.p_reflect, b.p_reflect, true, true, 1.0);
+            let below = b.coat_transmittance * sheen_scaling(b, wo.z, wo.z);
+            return BsdfSample(vec3<f32>(-wo.x, -wo.y, wo.z), f * below / b.p_reflect, b.p_reflect, true, true, 1.0);
         }
         let s = reflection_sample(wo, b.alpha, u);
         if (s.w == 0.0) {
             return no_bsdf_sample();
         }
         wi = s.xyz;
-    } else if (u_lobe < b.p_reflect + b.p_diffuse) {
+    } else if (u_l < b.p_reflect + b.p_diffuse) {
         wi = lambert_sample(u);
     } else {
         if (!FEATURE_TRANSMISSION || b.p_transmit <= 0.0) {
@@ -427,7 +598,8 @@ fn gltf_bsdf_sample(b: GltfBsdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> Bs
                 eta2 = b.eta * b.eta;
             }
             let fd = dielectric_fresnel(b, wo.z);
-            let t = dielectric * b.transmission * b.base_color * (1.0 - max_element(fd)) / eta2;
+            let below = b.coat_transmittance * sheen_scaling(b, wo.z, 0.0);
+            let t = dielectric * b.transmission * b.base_color * (1.0 - max_element(fd)) * below / eta2;
             return BsdfSample(wt, t / b.p_transmit, b.p_transmit, true, true, eta2);
         }
         var s: vec4<f32>;

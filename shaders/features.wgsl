@@ -13,3 +13,5 @@ override FEATURE_ENVIRONMENT: bool = true;
 override FEATURE_TEXTURES: bool = true;
 override FEATURE_NORMAL_MAPS: bool = true;
 override FEATURE_ALPHA: bool = true;
+override FEATURE_CLEARCOAT: bool = true;
+override FEATURE_SHEEN: bool = true;

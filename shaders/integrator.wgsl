@@ -17,6 +17,8 @@ struct SurfaceInteraction {
     distance: f32,
     // UV sets 0 (xy) and 1 (zw).
     uv: vec4<f32>,
+    // The clear coat's normal in the shading frame (+z without a coat).
+    coat_normal: vec3<f32>,
 }
 
 fn surface_interaction(ray: Ray, hit: ClosestHit) -> SurfaceInteraction {
@@ -37,38 +39,65 @@ fn surface_interaction(ray: Ray, hit: ClosestHit) -> SurfaceInteraction {
             n_front = select(interpolated.xyz, -interpolated.xyz, dot(interpolated.xyz, n_geometric) < 0.0);
         }
     }
-    var n_mapped = n_front;
+    let material = materials[tri.material];
+    // The tangent frame (front side) where a normal map will read it.
+    var tangent_frame = Frame(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    var has_tangent_frame = false;
     if (FEATURE_NORMAL_MAPS && (tri.flags & TRIANGLE_HAS_TANGENTS) != 0u) {
-        let material = materials[tri.material];
-        if (material.normal_texture != INVALID_INDEX) {
-            let texel = texture_lookup(material.normal_texture, uv, false);
-            let t = tangents[hit.triangle];
-            let tangent = b.x * oct_decode(t.t0) + b.y * oct_decode(t.t1) + b.z * oct_decode(t.t2);
-            let sign = select(1.0, -1.0, (t.signs & 1u) != 0u);
-            let ortho = try_normalize(tangent - n_front * dot(n_front, tangent));
-            if (ortho.w != 0.0) {
-                let bitangent = cross(n_front, ortho.xyz) * sign;
-                let m = texel.xyz * 2.0 - vec3<f32>(1.0);
-                let scale = material.normal_scale;
-                let mapped = try_normalize(ortho.xyz * (m.x * scale) + bitangent * (m.y * scale) + n_front * m.z);
-                if (mapped.w != 0.0) {
-                    n_mapped = select(mapped.xyz, n_front, dot(mapped.xyz, n_geometric) < 0.0);
-                }
-            }
+        let t = tangents[hit.triangle];
+        let tangent = b.x * oct_decode(t.t0) + b.y * oct_decode(t.t1) + b.z * oct_decode(t.t2);
+        let sign = select(1.0, -1.0, (t.signs & 1u) != 0u);
+        let ortho = try_normalize(tangent - n_front * dot(n_front, tangent));
+        if (ortho.w != 0.0) {
+            tangent_frame = Frame(ortho.xyz, cross(n_front, ortho.xyz) * sign, n_front);
+            has_tangent_frame = true;
         }
     }
-    // Face the ray; fall back to the interpolated, then the geometric normal where the
-    // viewer would be below the shading hemisphere (the CPU twin explains the rule).
-    let s_mapped = select(-n_mapped, n_mapped, front_face);
-    let s_front = select(-n_front, n_front, front_face);
-    var ns = ng_facing;
-    if (dot(s_mapped, wo_world) > 0.0) {
-        ns = s_mapped;
-    } else if (dot(s_front, wo_world) > 0.0) {
-        ns = s_front;
+    var n_mapped = n_front;
+    if (has_tangent_frame) {
+        n_mapped = map_normal(material.normal_texture, material.normal_scale, uv, tangent_frame, n_geometric);
     }
+    let ns = facing_normal(n_mapped, n_front, front_face, wo_world, ng_facing);
     let f = frame_from_z(ns);
-    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), front_face, tri.material, tri.emitter, hit.t, uv);
+    // The clear coat's own normal: its normal map, else the interpolated normal.
+    var coat_normal = vec3<f32>(0.0, 0.0, 1.0);
+    if (FEATURE_CLEARCOAT && material.clearcoat > 0.0) {
+        var n_coat = n_front;
+        if (has_tangent_frame) {
+            n_coat = map_normal(material.clearcoat_normal_texture, material.clearcoat_normal_scale, uv, tangent_frame, n_geometric);
+        }
+        coat_normal = normalize(frame_to_local(f, facing_normal(n_coat, n_front, front_face, wo_world, ng_facing)));
+    }
+    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), front_face, tri.material, tri.emitter, hit.t, uv, coat_normal);
+}
+
+// The normal map `texture` (or INVALID_INDEX: none) applied in `tf` (tangent, bitangent,
+// interpolated normal; glTF 2.0 §3.9.3), kept on the geometric front side; the interpolated
+// normal where there is no map.
+fn map_normal(texture: u32, scale: f32, uv: vec4<f32>, tf: Frame, n_geometric: vec3<f32>) -> vec3<f32> {
+    if (texture == INVALID_INDEX) {
+        return tf.z;
+    }
+    let m = texture_lookup(texture, uv, false).xyz * 2.0 - vec3<f32>(1.0);
+    let mapped = try_normalize(tf.x * (m.x * scale) + tf.y * (m.y * scale) + tf.z * m.z);
+    if (mapped.w == 0.0) {
+        return tf.z;
+    }
+    return select(mapped.xyz, tf.z, dot(mapped.xyz, n_geometric) < 0.0);
+}
+
+// Face the ray; fall back to the interpolated, then the geometric normal where the viewer
+// would be below the shading hemisphere (the CPU twin explains the rule).
+fn facing_normal(n: vec3<f32>, n_front: vec3<f32>, front_face: bool, wo_world: vec3<f32>, ng_facing: vec3<f32>) -> vec3<f32> {
+    let s_n = select(-n, n, front_face);
+    let s_front = select(-n_front, n_front, front_face);
+    if (dot(s_n, wo_world) > 0.0) {
+        return s_n;
+    }
+    if (dot(s_front, wo_world) > 0.0) {
+        return s_front;
+    }
+    return ng_facing;
 }
 
 // A NaN, to poison a sample whose throughput stopped being finite (the film rejects it).
@@ -121,7 +150,7 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
         if (depth >= frame.max_depth || depth >= MAX_BOUNCES_GUARD) {
             break;
         }
-        let bsdf = gltf_bsdf_new(material, si.wo.z, si.front_face);
+        let bsdf = gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal);
 
         if (has_non_delta(bsdf) && frame.light_count > 0u) {
             let u_select = rng_next_2d();

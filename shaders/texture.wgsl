@@ -104,6 +104,18 @@ fn textured_material(material: Material, uv: vec4<f32>) -> Material {
     if (m.specular_color_texture != INVALID_INDEX) {
         m.specular_color *= texture_lookup(m.specular_color_texture, uv, true).xyz;
     }
+    if (m.clearcoat_texture != INVALID_INDEX) {
+        m.clearcoat *= texture_lookup(m.clearcoat_texture, uv, false).x;
+    }
+    if (m.clearcoat_roughness_texture != INVALID_INDEX) {
+        m.clearcoat_roughness *= texture_lookup(m.clearcoat_roughness_texture, uv, false).y;
+    }
+    if (m.sheen_color_texture != INVALID_INDEX) {
+        m.sheen_color *= texture_lookup(m.sheen_color_texture, uv, true).xyz;
+    }
+    if (m.sheen_roughness_texture != INVALID_INDEX) {
+        m.sheen_roughness *= texture_lookup(m.sheen_roughness_texture, uv, false).w;
+    }
     return m;
 }
 

@@ -484,6 +484,8 @@ fn textured_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
             "DamagedHelmet/DamagedHelmet.glb",
             "AlphaBlendModeTest/AlphaBlendModeTest.glb",
             "ClearCoatTest/ClearCoatTest.glb",
+            // Clearcoat, sheen and transmission together.
+            "ToyCar/ToyCar.gltf",
         ] {
             let (mut scene, _) = pathlight::scene::load(&assets.join("khronos").join(model)).unwrap();
             scene.environment = Some(

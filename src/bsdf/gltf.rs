@@ -1,11 +1,22 @@
 //! The glTF 2.0 metallic-roughness BSDF (glTF 2.0 Appendix B) with
-//! KHR_materials_specular, _ior, _transmission and _volume, assembled from the lobes:
+//! KHR_materials_specular, _ior, _transmission, _volume, _sheen and _clearcoat, assembled
+//! from the lobes:
 //!
 //! ```text
 //! dielectric = F_d · specular + (1 − max(F_d)) · [(1 − t) · diffuse + t · baseColor · btdf]
 //! metal      = F_m · specular,             F_m = baseColor + (1 − baseColor)(1 − |v·h|)⁵
-//! bsdf       = (1 − metallic) · dielectric + metallic · metal
+//! base       = (1 − metallic) · dielectric + metallic · metal
+//! sheened    = sheenColor · f_sheen + base · (1 − max(sheenColor) · E)       (sheen.rs)
+//! bsdf       = c · F_c(|v·h_c|) · coat + (1 − c · F_c(n_c·v)) · sheened
 //! ```
+//!
+//! The coat (KHR_materials_clearcoat) is a GGX reflection of roughness
+//! `clearcoatRoughness` about its own normal n_c (the coat's normal map, else the
+//! interpolated normal: not the base's normal map), with Schlick's Fresnel F_c at F₀ = 0.04
+//! (ior 1.5) and weight c = clearcoat. Its Fresnel is taken at the coat's half vector for the
+//! coat lobe and at the view direction for the attenuation of what lies below, as the
+//! Khronos sample renderer does. Coat and sheen are outer layers: seen from inside a
+//! refracting solid they are absent.
 //!
 //! `specular` is GGX with height-correlated Smith masking, α = roughness²; each term's
 //! Fresnel is evaluated at its own microfacet normal h.
@@ -32,13 +43,23 @@ use super::fresnel::{fresnel_dielectric, fresnel_schlick};
 use super::lambert::{lambert_eval, lambert_pdf, lambert_sample};
 use super::reflection::{reflection_eval, reflection_half_vector, reflection_pdf, reflection_sample};
 use super::refract_through;
+use super::sheen::{sheen_albedo, sheen_albedo_scaling, sheen_albedo_table, sheen_alpha, sheen_eval};
 use super::thin_transmission::{
     thin_transmission_eval, thin_transmission_half_vector, thin_transmission_pdf, thin_transmission_sample,
 };
 use super::transmission::{
     transmission_eval, transmission_half_vector, transmission_pdf, transmission_sample,
 };
+use crate::geometry::Frame;
 use crate::scene::layout::{Material, MATERIAL_VOLUME};
+
+/// F₀ of the clear coat: KHR_materials_clearcoat fixes its index at 1.5.
+pub const CLEARCOAT_F0: f32 = 0.04;
+
+/// The coat lobe is dropped where the base shading frame's cos θi is below this: there the
+/// ratio of the coat's cosine to the base's (see [`GltfBsdf::eval`]) has no f32 meaning, and
+/// the directions it drops are a sliver of the hemisphere.
+pub const COAT_MIN_BASE_COSINE: f32 = 1e-6;
 
 /// Every lobe that can contribute is chosen with at least this (unnormalised) weight, so
 /// an underestimated lobe is never starved into bias.
@@ -81,18 +102,52 @@ pub struct GltfBsdf {
     p_reflect: f32,
     p_diffuse: f32,
     p_transmit: f32,
+    /// Clear-coat weight (0: no coat), GGX α, and frame about the coat normal.
+    coat: f32,
+    coat_alpha: f32,
+    coat_frame: Frame,
+    /// 1 − c · F_c(n_c · wo): what the coat lets through to the layers below.
+    coat_transmittance: f32,
+    /// Sheen colour (black: no sheen), perceptual roughness and Charlie α.
+    sheen_color: Vec3,
+    sheen_roughness: f32,
+    sheen_alpha: f32,
+    /// The directional albedo table (`sheen::sheen_albedo_table`).
+    sheen_table: &'static [f32],
+    p_coat: f32,
+    p_sheen: f32,
+}
+
+/// The sheen albedo table when a sheen needs it (an empty slice otherwise, never read).
+fn sheen_albedo_table_if(needed: bool) -> &'static [f32] {
+    if needed {
+        sheen_albedo_table()
+    } else {
+        &[]
+    }
 }
 
 impl GltfBsdf {
-    /// `cos_theta_o` is `wo.z` in the shading frame; `front_face` says whether `wo` is on the
-    /// side the geometric normal points to (entering a refracting solid).
-    pub fn new(m: &Material, cos_theta_o: f32, front_face: bool) -> GltfBsdf {
+    /// The BSDF for outgoing direction `wo` (shading frame); `front_face` says whether `wo` is
+    /// on the side the geometric normal points to (entering a refracting solid);
+    /// `coat_normal` is the clear coat's normal in the shading frame (+z when it has none of
+    /// its own).
+    pub fn new(m: &Material, wo: Vec3, front_face: bool, coat_normal: Vec3) -> GltfBsdf {
+        let cos_theta_o = wo.z;
         let base_color = Vec3::from(m.base_color);
         let ior = m.ior;
         let volume = m.flags & MATERIAL_VOLUME != 0 && m.transmission > 0.0;
         let eta = if volume && !front_face { 1.0 / ior } else { ior };
         let r0 = ((ior - 1.0) / (ior + 1.0)).powi(2);
         let specular_color = Vec3::from(m.specular_color);
+        // Outer layers are absent from inside a solid.
+        let outside = !volume || front_face;
+        let coat_frame = Frame::from_z(coat_normal);
+        let coat_cos_o = coat_frame.to_local(wo).z;
+        let coat = if outside && coat_cos_o > 0.0 { m.clearcoat.clamp(0.0, 1.0) } else { 0.0 };
+        let sheen_color = if outside { Vec3::from(m.sheen_color).max(Vec3::ZERO) } else { Vec3::ZERO };
+        let sheen_table = sheen_albedo_table_if(sheen_color.max_element() > 0.0);
+        let coat_fresnel_o = fresnel_schlick(Vec3::splat(CLEARCOAT_F0), 1.0, coat_cos_o).x;
         let mut b = GltfBsdf {
             base_color,
             metallic: m.metallic,
@@ -107,10 +162,27 @@ impl GltfBsdf {
             p_reflect: 0.0,
             p_diffuse: 0.0,
             p_transmit: 0.0,
+            coat,
+            coat_alpha: super::alpha_from_roughness(m.clearcoat_roughness),
+            coat_frame,
+            coat_transmittance: 1.0 - coat * coat_fresnel_o,
+            sheen_color,
+            sheen_roughness: m.sheen_roughness,
+            sheen_alpha: sheen_alpha(m.sheen_roughness),
+            sheen_table,
+            p_coat: 0.0,
+            p_sheen: 0.0,
         };
         let f = b.dielectric_fresnel(cos_theta_o).max_element();
         let dielectric = 1.0 - b.metallic;
         let color = base_color.max_element();
+        let sheen_reflectance = if b.has_sheen() {
+            sheen_color.max_element() * sheen_albedo(sheen_table, cos_theta_o, b.sheen_roughness)
+        } else {
+            0.0
+        };
+        // The share of the view direction's light that reaches the base layer.
+        let below = b.coat_transmittance * (1.0 - sheen_reflectance).max(0.0);
         let reflect_present = b.metallic > 0.0 || b.specular_factor > 0.0;
         let diffuse_present = dielectric * (1.0 - b.transmission) > 0.0 && color > 0.0;
         let transmit_present = dielectric * b.transmission > 0.0 && color > 0.0;
@@ -121,16 +193,61 @@ impl GltfBsdf {
                 0.0
             }
         };
-        let w_r = weight(reflect_present, b.metallic + dielectric * f);
-        let w_d = weight(diffuse_present, dielectric * (1.0 - b.transmission) * (1.0 - f) * color);
-        let w_t = weight(transmit_present, dielectric * b.transmission * (1.0 - f) * color);
-        let total = w_r + w_d + w_t;
+        let w_c = weight(coat > 0.0, coat * coat_fresnel_o);
+        let w_s = weight(b.has_sheen(), b.coat_transmittance * sheen_reflectance);
+        let w_r = weight(reflect_present, below * (b.metallic + dielectric * f));
+        let w_d = weight(diffuse_present, below * dielectric * (1.0 - b.transmission) * (1.0 - f) * color);
+        let w_t = weight(transmit_present, below * dielectric * b.transmission * (1.0 - f) * color);
+        let total = w_c + w_s + w_r + w_d + w_t;
         if total > 0.0 {
+            b.p_coat = w_c / total;
+            b.p_sheen = w_s / total;
             b.p_reflect = w_r / total;
             b.p_diffuse = w_d / total;
             b.p_transmit = w_t / total;
         }
         b
+    }
+
+    fn has_sheen(&self) -> bool {
+        self.sheen_color.max_element() > 0.0
+    }
+
+    /// The scaling of the base layer under the sheen for directions with cosines `mu_o`,
+    /// `mu_i` (1 without a sheen).
+    fn sheen_scaling(&self, mu_o: f32, mu_i: f32) -> f32 {
+        if self.has_sheen() {
+            sheen_albedo_scaling(self.sheen_table, self.sheen_color, self.sheen_roughness, mu_o, mu_i)
+        } else {
+            1.0
+        }
+    }
+
+    /// The coat lobe (weight and Fresnel included), divided by the base frame's cos θi so
+    /// that the integrator's |cos θi| leaves the coat's own cosine: the coat's normal is not
+    /// the base's.
+    fn coat_eval(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.coat <= 0.0 || self.coat_alpha == 0.0 || wi.z < COAT_MIN_BASE_COSINE {
+            return 0.0;
+        }
+        let (wo_c, wi_c) = (self.coat_frame.to_local(wo), self.coat_frame.to_local(wi));
+        if wo_c.z <= 0.0 || wi_c.z <= 0.0 {
+            return 0.0;
+        }
+        let Some(h) = reflection_half_vector(wo_c, wi_c) else { return 0.0 };
+        let fresnel = fresnel_schlick(Vec3::splat(CLEARCOAT_F0), 1.0, wo_c.dot(h)).x;
+        self.coat * fresnel * reflection_eval(wo_c, wi_c, self.coat_alpha) * wi_c.z / wi.z
+    }
+
+    fn coat_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.p_coat <= 0.0 || self.coat_alpha == 0.0 || wi.z < COAT_MIN_BASE_COSINE {
+            return 0.0;
+        }
+        let (wo_c, wi_c) = (self.coat_frame.to_local(wo), self.coat_frame.to_local(wi));
+        if wo_c.z <= 0.0 || wi_c.z <= 0.0 {
+            return 0.0;
+        }
+        reflection_pdf(wo_c, wi_c, self.coat_alpha)
     }
 
     /// F_d at `cos_theta` = |wo·h| (see the module comment).
@@ -151,13 +268,16 @@ impl GltfBsdf {
     /// Can light sampling contribute (is there any non-delta lobe)?
     pub fn has_non_delta(&self) -> bool {
         self.p_diffuse > 0.0
+            || self.p_sheen > 0.0
+            || (self.p_coat > 0.0 && self.coat_alpha > 0.0)
             || (self.p_reflect > 0.0 && self.alpha > 0.0)
             || (self.p_transmit > 0.0 && !self.transmission_is_delta)
     }
 
-    /// Lobe selection probabilities (reflection, diffuse, transmission), for tests.
-    pub fn lobe_probabilities(&self) -> [f32; 3] {
-        [self.p_reflect, self.p_diffuse, self.p_transmit]
+    /// Lobe selection probabilities (coat, sheen, reflection, diffuse, transmission), for
+    /// tests.
+    pub fn lobe_probabilities(&self) -> [f32; 5] {
+        [self.p_coat, self.p_sheen, self.p_reflect, self.p_diffuse, self.p_transmit]
     }
 
     /// The non-delta part of f(wo, wi), without the cosine.
@@ -165,6 +285,22 @@ impl GltfBsdf {
         if wo.z <= 0.0 {
             return Vec3::ZERO;
         }
+        let base = self.base_eval(wo, wi);
+        if wi.z > 0.0 {
+            let sheen = if self.has_sheen() {
+                self.sheen_color * sheen_eval(wo, wi, self.sheen_alpha)
+            } else {
+                Vec3::ZERO
+            };
+            let below = sheen + base * self.sheen_scaling(wo.z, wi.z);
+            Vec3::splat(self.coat_eval(wo, wi)) + self.coat_transmittance * below
+        } else {
+            base * (self.coat_transmittance * self.sheen_scaling(wo.z, 0.0))
+        }
+    }
+
+    /// The base layer (metal, dielectric, transmission) without coat and sheen.
+    fn base_eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         let dielectric = 1.0 - self.metallic;
         if wi.z > 0.0 {
             let Some(h) = reflection_half_vector(wo, wi) else { return Vec3::ZERO };
@@ -200,7 +336,8 @@ impl GltfBsdf {
             return 0.0;
         }
         if wi.z > 0.0 {
-            let mut p = self.p_diffuse * lambert_pdf(wi);
+            let mut p =
+                (self.p_diffuse + self.p_sheen) * lambert_pdf(wi) + self.p_coat * self.coat_pdf(wo, wi);
             if self.alpha > 0.0 && self.p_reflect > 0.0 {
                 p += self.p_reflect * reflection_pdf(wo, wi, self.alpha);
             }
@@ -223,13 +360,39 @@ impl GltfBsdf {
             return None;
         }
         let dielectric = 1.0 - self.metallic;
-        let wi = if u_lobe < self.p_reflect {
+        // Lobes in the order coat, sheen, reflection, diffuse, transmission along u_lobe.
+        let u_lobe = u_lobe - self.p_coat - self.p_sheen;
+        let wi = if u_lobe < -self.p_sheen {
+            let wo_c = self.coat_frame.to_local(wo);
+            if self.coat_alpha == 0.0 {
+                let wi = self.coat_frame.from_local(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z));
+                if wi.z <= 0.0 {
+                    return None;
+                }
+                let f = self.coat * fresnel_schlick(Vec3::splat(CLEARCOAT_F0), 1.0, wo_c.z).x;
+                return Some(BsdfSample {
+                    wi,
+                    weight: Vec3::splat(f / self.p_coat),
+                    pdf_solid_angle: self.p_coat,
+                    is_delta: true,
+                    eta_scale: 1.0,
+                });
+            }
+            let wi = self.coat_frame.from_local(reflection_sample(wo_c, self.coat_alpha, u)?);
+            if wi.z <= 0.0 {
+                return None;
+            }
+            wi
+        } else if u_lobe < 0.0 {
+            lambert_sample(u)
+        } else if u_lobe < self.p_reflect {
             if self.alpha == 0.0 {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
                 let f = dielectric * self.dielectric_fresnel(wo.z) + self.metallic * self.metal_fresnel(wo.z);
+                let below = self.coat_transmittance * self.sheen_scaling(wo.z, wo.z);
                 return Some(BsdfSample {
                     wi,
-                    weight: f / self.p_reflect,
+                    weight: f * below / self.p_reflect,
                     pdf_solid_angle: self.p_reflect,
                     is_delta: true,
                     eta_scale: 1.0,
@@ -249,7 +412,9 @@ impl GltfBsdf {
                     (-wo, 1.0)
                 };
                 let fd = self.dielectric_fresnel(wo.z);
-                let t = dielectric * self.transmission * self.base_color * (1.0 - fd.max_element()) / eta2;
+                let below = self.coat_transmittance * self.sheen_scaling(wo.z, 0.0);
+                let t = dielectric * self.transmission * self.base_color * (1.0 - fd.max_element()) * below
+                    / eta2;
                 return Some(BsdfSample {
                     wi,
                     weight: t / self.p_transmit,

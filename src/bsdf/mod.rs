@@ -12,10 +12,11 @@ mod gltf;
 pub mod lambert;
 pub mod microfacet;
 pub mod reflection;
+pub mod sheen;
 pub mod thin_transmission;
 pub mod transmission;
 
-pub use gltf::{BsdfSample, GltfBsdf, LOBE_SELECTION_FLOOR};
+pub use gltf::{BsdfSample, GltfBsdf, CLEARCOAT_F0, COAT_MIN_BASE_COSINE, LOBE_SELECTION_FLOOR};
 
 /// Smallest GGX α used for a non-zero roughness. GGX's normalisation has α⁴ in its
 /// denominator; below α ≈ 1e-4 that underflows f32 (and GPUs flush denormals), so rougher

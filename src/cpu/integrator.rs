@@ -67,6 +67,8 @@ pub struct SurfaceInteraction {
     pub distance: f32,
     /// UV sets 0 and 1 at the hit (zero without textures).
     pub uv: (Vec2, Vec2),
+    /// The clear coat's normal in the shading frame (+z without a coat).
+    pub coat_normal: Vec3,
 }
 
 /// Builds the interaction for `hit` of `ray` (`ray.direction` unit length).
@@ -95,33 +97,45 @@ pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> Su
             n_front = if s.dot(n_geometric) < 0.0 { -s } else { s };
         }
     }
-    let mut n_mapped = n_front;
-    if tri.flags & TRIANGLE_HAS_TANGENTS != 0 {
-        let material = &scene.materials[tri.material as usize];
-        if let Some(texel) = textures.lookup(material.normal_texture, uv, false) {
-            let t = &scene.tangents[hit.triangle as usize];
-            let tangent = h.b0 * oct_decode(t.t0) + h.b1 * oct_decode(t.t1) + h.b2 * oct_decode(t.t2);
-            let sign = if t.signs & 1 != 0 { -1.0 } else { 1.0 };
-            // Gram–Schmidt: the interpolated tangent is only nearly orthogonal to N.
-            if let Some(tangent) = (tangent - n_front * n_front.dot(tangent)).try_normalize() {
-                let bitangent = n_front.cross(tangent) * sign;
-                let m = texel.truncate() * 2.0 - Vec3::ONE;
-                let scale = material.normal_scale;
-                let mapped = tangent * (m.x * scale) + bitangent * (m.y * scale) + n_front * m.z;
-                if let Some(mapped) = mapped.try_normalize() {
-                    n_mapped = if mapped.dot(n_geometric) < 0.0 { n_front } else { mapped };
-                }
-            }
-        }
-    }
+    let material = &scene.materials[tri.material as usize];
+    // The tangent frame (front side) where a normal map will read it.
+    let tangent_frame = if tri.flags & TRIANGLE_HAS_TANGENTS != 0 {
+        let t = &scene.tangents[hit.triangle as usize];
+        let tangent = h.b0 * oct_decode(t.t0) + h.b1 * oct_decode(t.t1) + h.b2 * oct_decode(t.t2);
+        let sign = if t.signs & 1 != 0 { -1.0 } else { 1.0 };
+        // Gram–Schmidt: the interpolated tangent is only nearly orthogonal to N.
+        (tangent - n_front * n_front.dot(tangent))
+            .try_normalize()
+            .map(|tangent| (tangent, n_front.cross(tangent) * sign))
+    } else {
+        None
+    };
+    let map_normal = |texture: u32, scale: f32| -> Option<Vec3> {
+        let (tangent, bitangent) = tangent_frame?;
+        let texel = textures.lookup(texture, uv, false)?;
+        let m = texel.truncate() * 2.0 - Vec3::ONE;
+        let mapped = (tangent * (m.x * scale) + bitangent * (m.y * scale) + n_front * m.z).try_normalize()?;
+        Some(if mapped.dot(n_geometric) < 0.0 { n_front } else { mapped })
+    };
+    let n_mapped = map_normal(material.normal_texture, material.normal_scale).unwrap_or(n_front);
     // Face the incoming ray, and fall back where the shading normal would put the viewer
     // below its hemisphere (silhouettes of coarse meshes, steep normal-map texels): first to
     // the interpolated normal, then to the geometric one. This is the usual shading-normal
     // guard (Veach 1997 §5.3 discusses why such normals are asymmetric), not a microfacet
     // normal-mapping model (Schüßler et al. 2017).
     let flip = |n: Vec3| if front_face { n } else { -n };
-    let ns = [flip(n_mapped), flip(n_front)].into_iter().find(|n| n.dot(wo_world) > 0.0).unwrap_or(ng_facing);
-    let frame = Frame::from_z(ns);
+    let facing =
+        |n: Vec3| [flip(n), flip(n_front)].into_iter().find(|n| n.dot(wo_world) > 0.0).unwrap_or(ng_facing);
+    let frame = Frame::from_z(facing(n_mapped));
+    // The clear coat's own normal: its normal map, else the interpolated normal (never the
+    // base's normal map), under the same guard.
+    let coat_normal = if material.clearcoat > 0.0 {
+        let n =
+            map_normal(material.clearcoat_normal_texture, material.clearcoat_normal_scale).unwrap_or(n_front);
+        frame.to_local(facing(n)).normalize()
+    } else {
+        Vec3::Z
+    };
     SurfaceInteraction {
         p,
         p_error,
@@ -133,6 +147,7 @@ pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> Su
         emitter: tri.emitter,
         distance: h.t,
         uv,
+        coat_normal,
     }
 }
 
@@ -208,7 +223,7 @@ pub fn radiance(
         if depth >= settings.max_depth || depth >= MAX_BOUNCES_GUARD {
             break;
         }
-        let bsdf = GltfBsdf::new(material, si.wo.z, si.front_face);
+        let bsdf = GltfBsdf::new(material, si.wo, si.front_face, si.coat_normal);
 
         // Next-event estimation.
         if bsdf.has_non_delta() && !scene.lights.is_empty() {

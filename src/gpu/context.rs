@@ -181,6 +181,7 @@ impl GpuContext {
                 storage(15, true),
                 storage(16, true),
                 storage(17, true),
+                storage(18, true),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

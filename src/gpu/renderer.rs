@@ -119,6 +119,11 @@ impl GpuBackend {
         let texcoords =
             storage("texture coordinates", bytemuck::cast_slice(&or_one(&scene.texcoords)), read_only)?;
         let tangents = storage("tangents", bytemuck::cast_slice(&or_one(&scene.tangents)), read_only)?;
+        // The sheen albedo table, computed on the host so that both backends read the same
+        // numbers; one unused element for a scene without sheen.
+        let sheen_table: &[f32] =
+            if scene.features.sheen { crate::bsdf::sheen::sheen_albedo_table() } else { &[0.0] };
+        let sheen_albedo = storage("sheen albedo table", bytemuck::cast_slice(sheen_table), read_only)?;
         let pixels = settings.width as u64 * settings.height as u64;
         let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let zeroed = |what: &str, bytes: u64| -> Result<wgpu::Buffer> {
@@ -166,6 +171,7 @@ impl GpuBackend {
             &texture_bindings,
             &texcoords,
             &tangents,
+            &sheen_albedo,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()

@@ -147,6 +147,10 @@ mod tests {
             ("RR_MAX_SURVIVAL", crate::cpu::RR_MAX_SURVIVAL as f64),
             ("LOBE_SELECTION_FLOOR", crate::bsdf::LOBE_SELECTION_FLOOR as f64),
             ("MIN_ALPHA", crate::bsdf::MIN_ALPHA as f64),
+            ("CLEARCOAT_F0", crate::bsdf::CLEARCOAT_F0 as f64),
+            ("COAT_MIN_BASE_COSINE", crate::bsdf::COAT_MIN_BASE_COSINE as f64),
+            ("MIN_SHEEN_ROUGHNESS", crate::bsdf::sheen::MIN_SHEEN_ROUGHNESS as f64),
+            ("SHEEN_ALBEDO_SIZE", crate::bsdf::sheen::SHEEN_ALBEDO_SIZE as f64),
             ("SHADOW_EPSILON", crate::geometry::SHADOW_EPSILON as f64),
         ];
         for (name, value) in shared {

@@ -30,6 +30,10 @@ pub struct SceneFeatures {
     pub normal_maps: bool,
     /// Some material's alpha mode is MASK or BLEND (alpha tests inside traversal).
     pub alpha: bool,
+    /// Some material has a clear coat (KHR_materials_clearcoat factor > 0).
+    pub clearcoat: bool,
+    /// Some material has a sheen (KHR_materials_sheen colour not black).
+    pub sheen: bool,
 }
 
 impl SceneFeatures {
@@ -46,6 +50,8 @@ impl SceneFeatures {
         textures: true,
         normal_maps: true,
         alpha: true,
+        clearcoat: true,
+        sheen: true,
     };
 
     /// The features of `materials[i]` for every `i` in `used_materials`, and of `lights`.
@@ -62,6 +68,8 @@ impl SceneFeatures {
             f.transmission |= m.transmission > 0.0;
             f.volume |= m.flags & MATERIAL_VOLUME != 0;
             f.alpha |= m.flags & (layout::MATERIAL_ALPHA_MASK | layout::MATERIAL_ALPHA_BLEND) != 0;
+            f.clearcoat |= m.clearcoat > 0.0;
+            f.sheen |= m.sheen_color.iter().any(|&c| c > 0.0);
         }
         for l in lights {
             match l.kind {
@@ -79,7 +87,7 @@ impl SceneFeatures {
     }
 
     /// `(WGSL override name, value)` for each feature, as the kernel declares them.
-    pub fn pipeline_constants(&self) -> [(&'static str, bool); 11] {
+    pub fn pipeline_constants(&self) -> [(&'static str, bool); 13] {
         [
             ("FEATURE_SPECULAR", self.specular),
             ("FEATURE_TRANSMISSION", self.transmission),
@@ -92,6 +100,8 @@ impl SceneFeatures {
             ("FEATURE_TEXTURES", self.textures),
             ("FEATURE_NORMAL_MAPS", self.normal_maps),
             ("FEATURE_ALPHA", self.alpha),
+            ("FEATURE_CLEARCOAT", self.clearcoat),
+            ("FEATURE_SHEEN", self.sheen),
         ]
     }
 

@@ -94,19 +94,7 @@ impl FlatScene {
         let usable = |t: usize| scene.textures.get(t).is_some_and(|t| t.image.is_some());
         let materials: Vec<layout::Material> =
             scene.materials.iter().map(|m| m.to_gpu(&mut texture_bindings, &usable)).collect();
-        let textured = |m: &layout::Material| {
-            [
-                m.base_color_texture,
-                m.metallic_roughness_texture,
-                m.normal_texture,
-                m.emissive_texture,
-                m.transmission_texture,
-                m.specular_texture,
-                m.specular_color_texture,
-            ]
-            .iter()
-            .any(|&t| t != INVALID_INDEX)
-        };
+        let textured = |m: &layout::Material| m.texture_inputs().iter().any(|&t| t != INVALID_INDEX);
         // Per-triangle UVs and tangents only when some triangle's material reads a texture.
         let any_textured = scene.triangle_materials.iter().any(|&m| textured(&materials[m as usize]));
         let mut triangles = Vec::with_capacity(positions.len());
@@ -119,7 +107,7 @@ impl FlatScene {
             let n = scene.normals[src];
             let material = scene.triangle_materials[src];
             let t = scene.tangents.get(src).copied().flatten();
-            let has_tangents = t.is_some() && materials[material as usize].normal_texture != INVALID_INDEX;
+            let has_tangents = t.is_some() && materials[material as usize].is_normal_mapped();
             triangles.push(Triangle {
                 p0: p0.to_array(),
                 material,

@@ -21,8 +21,10 @@ use crate::error::{Error, Result};
 /// Extensions whose meaning pathlight implements.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
@@ -131,7 +133,16 @@ fn load_unchecked(bytes: &[u8], file: &Path, options: &LoadOptions) -> Result<(S
     let (images, textures) = load_images_and_textures(doc, &buffers, file, options, &mut warnings)?;
 
     let mut scene = Scene { source: file.to_path_buf(), images, textures, ..Scene::default() };
-    scene.materials = doc.materials().map(|m| read_material(&m, file)).collect::<Result<_>>()?;
+    scene.materials = doc
+        .materials()
+        .map(|m| {
+            let mut desc = read_material(&m, file)?;
+            let index = m.index().unwrap_or(0);
+            read_raw_material(&raw_json["materials"][index], scene.textures.len(), &mut desc)
+                .map_err(|e| err(format!("material {index} '{}': {e}", desc.name)))?;
+            Ok(desc)
+        })
+        .collect::<Result<_>>()?;
     let default_material = scene.materials.len() as u32;
     scene.materials.push(MaterialDesc::default());
     let gltf_scene = doc
@@ -404,9 +415,10 @@ fn add_mesh(
                 .as_ref()
                 .map_or(glam::Vec2::ZERO, |s| glam::Vec2::new(s[2 * v as usize], s[2 * v as usize + 1]))
         };
-        // Tangents only where a normal texture will read them: the file's, else MikkTSpace's
-        // (Mikkelsen 2008, the generator glTF 2.0 §3.7.2.1 names) on the normal texture's UVs.
-        let normal_slot = scene.materials.get(material as usize).and_then(|m| m.normal_texture.clone());
+        // Tangents only where a normal texture (the base's or the coat's) will read them: the
+        // file's, else MikkTSpace's (Mikkelsen 2008, the generator glTF 2.0 §3.7.2.1 names) on
+        // the normal texture's UVs.
+        let normal_slot = scene.materials.get(material as usize).and_then(|m| m.needs_tangents().cloned());
         let object_tangents: Option<Vec<[glam::Vec4; 3]>> = match &normal_slot {
             None => None,
             Some(slot) => match read_set(gltf::Semantic::Tangents, "TANGENT", Dimensions::Vec4)? {
@@ -632,6 +644,105 @@ fn slot(info: Option<gltf::texture::Info>) -> Option<TextureSlot> {
     })
 }
 
+/// A `textureInfo` (or `normalTextureInfo`) read from the raw JSON, with its
+/// KHR_texture_transform: for the extensions the gltf crate does not parse. `Ok(None)` when
+/// absent.
+fn raw_texture_slot(
+    v: &serde_json::Value,
+    texture_count: usize,
+    what: &str,
+) -> std::result::Result<Option<TextureSlot>, String> {
+    if v.is_null() {
+        return Ok(None);
+    }
+    let index = v["index"].as_u64().ok_or_else(|| format!("{what}.index must be a non-negative integer"))?;
+    if index as usize >= texture_count || index > u32::MAX as u64 {
+        return Err(format!("{what}.index is {index}, but the file has {texture_count} textures"));
+    }
+    let tex_coord = |v: &serde_json::Value, default: u64| -> std::result::Result<u32, String> {
+        match v {
+            serde_json::Value::Null => Ok(default as u32),
+            v => v
+                .as_u64()
+                .filter(|&t| t <= u32::MAX as u64)
+                .map(|t| t as u32)
+                .ok_or_else(|| format!("{what}.texCoord must be a non-negative integer")),
+        }
+    };
+    let base_tex_coord = tex_coord(&v["texCoord"], 0)?;
+    let t = &v["extensions"]["KHR_texture_transform"];
+    let (tex_coord, transform) = if t.is_object() {
+        let sane = |x: f64, default: f32| if x.is_finite() { x as f32 } else { default };
+        let offset = f64_array::<2>(t.get("offset"), [0.0, 0.0], "KHR_texture_transform.offset")?;
+        let scale = f64_array::<2>(t.get("scale"), [1.0, 1.0], "KHR_texture_transform.scale")?;
+        let rotation = t["rotation"].as_f64().unwrap_or(0.0);
+        (
+            tex_coord(&t["texCoord"], base_tex_coord as u64)?,
+            TextureSlot::transform_from(
+                [sane(offset[0], 0.0), sane(offset[1], 0.0)],
+                sane(rotation, 0.0),
+                [sane(scale[0], 1.0), sane(scale[1], 1.0)],
+            ),
+        )
+    } else {
+        (base_tex_coord, TextureSlot::IDENTITY)
+    };
+    Ok(Some(TextureSlot { texture: index as usize, tex_coord, transform }))
+}
+
+/// A number of the raw JSON, `default` when absent; an error when present and not a finite
+/// number.
+fn raw_number(v: &serde_json::Value, default: f32, what: &str) -> std::result::Result<f32, String> {
+    match v {
+        serde_json::Value::Null => Ok(default),
+        v => v
+            .as_f64()
+            .map(|x| x as f32)
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{what} must be a finite number")),
+    }
+}
+
+/// What the gltf crate does not read, from the material's raw JSON: KHR_materials_clearcoat,
+/// KHR_materials_sheen, and KHR_texture_transform on the normal texture.
+fn read_raw_material(
+    m: &serde_json::Value,
+    texture_count: usize,
+    desc: &mut MaterialDesc,
+) -> std::result::Result<(), String> {
+    if let Some(slot) = raw_texture_slot(&m["normalTexture"], texture_count, "normalTexture")? {
+        desc.normal_texture = Some(slot);
+    }
+    let c = &m["extensions"]["KHR_materials_clearcoat"];
+    if c.is_object() {
+        desc.clearcoat = raw_number(&c["clearcoatFactor"], 0.0, "clearcoatFactor")?.clamp(0.0, 1.0);
+        desc.clearcoat_roughness =
+            raw_number(&c["clearcoatRoughnessFactor"], 0.0, "clearcoatRoughnessFactor")?.clamp(0.0, 1.0);
+        desc.clearcoat_texture = raw_texture_slot(&c["clearcoatTexture"], texture_count, "clearcoatTexture")?;
+        desc.clearcoat_roughness_texture =
+            raw_texture_slot(&c["clearcoatRoughnessTexture"], texture_count, "clearcoatRoughnessTexture")?;
+        let normal = &c["clearcoatNormalTexture"];
+        desc.clearcoat_normal_texture = raw_texture_slot(normal, texture_count, "clearcoatNormalTexture")?;
+        desc.clearcoat_normal_scale = raw_number(&normal["scale"], 1.0, "clearcoatNormalTexture.scale")?;
+    }
+    let sh = &m["extensions"]["KHR_materials_sheen"];
+    if sh.is_object() {
+        let color = f64_array::<3>(sh.get("sheenColorFactor"), [0.0; 3], "sheenColorFactor")?;
+        let color = Vec3::new(color[0] as f32, color[1] as f32, color[2] as f32);
+        if !color.is_finite() {
+            return Err("sheenColorFactor must be finite".into());
+        }
+        desc.sheen_color = color.clamp(Vec3::ZERO, Vec3::ONE);
+        desc.sheen_roughness =
+            raw_number(&sh["sheenRoughnessFactor"], 0.0, "sheenRoughnessFactor")?.clamp(0.0, 1.0);
+        desc.sheen_color_texture =
+            raw_texture_slot(&sh["sheenColorTexture"], texture_count, "sheenColorTexture")?;
+        desc.sheen_roughness_texture =
+            raw_texture_slot(&sh["sheenRoughnessTexture"], texture_count, "sheenRoughnessTexture")?;
+    }
+    Ok(())
+}
+
 fn read_material(m: &gltf::Material, file: &Path) -> Result<MaterialDesc> {
     let index = m.index().unwrap_or(0);
     let name = m.name().map(str::to_owned).unwrap_or_else(|| format!("material {index}"));
@@ -660,8 +771,7 @@ fn read_material(m: &gltf::Material, file: &Path) -> Result<MaterialDesc> {
         alpha_cutoff: m.alpha_cutoff().filter(|c| c.is_finite()).unwrap_or(0.5),
         base_color_texture: slot(pbr.base_color_texture()),
         metallic_roughness_texture: slot(pbr.metallic_roughness_texture()),
-        // normalTexture and occlusionTexture are not textureInfo in the gltf crate, and it
-        // reads no KHR_texture_transform on them; their UVs are used as they are.
+        // normalTexture is re-read with its KHR_texture_transform by `read_raw_material`.
         normal_texture: m.normal_texture().map(|t| TextureSlot {
             texture: t.texture().index(),
             tex_coord: t.tex_coord(),

@@ -108,7 +108,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A material reduced to what the kernels evaluate, 128 bytes. See `src/bsdf/gltf.rs` for
+    /// A material reduced to what the kernels evaluate, 176 bytes. See `src/bsdf/gltf.rs` for
     /// how each field enters the glTF BSDF.
     pub struct Material {
         /// Linear base colour.
@@ -148,9 +148,54 @@ gpu_struct! {
         pub normal_scale: f32,
         /// glTF `alphaCutoff` (alpha mode MASK).
         pub alpha_cutoff: f32,
+        /// KHR_materials_clearcoat `clearcoatFactor` (0: no coat).
+        pub clearcoat: f32,
+        /// KHR_materials_clearcoat `clearcoatRoughnessFactor` (perceptual; GGX α = its square).
+        pub clearcoat_roughness: f32,
+        /// KHR_materials_clearcoat textures: factor (R), roughness (G), and the coat's own
+        /// normal map (without one the coat follows the interpolated normal, not the base's
+        /// normal map).
+        pub clearcoat_texture: u32,
+        pub clearcoat_roughness_texture: u32,
+        pub clearcoat_normal_texture: u32,
+        /// `clearcoatNormalTexture.scale`.
+        pub clearcoat_normal_scale: f32,
+        /// KHR_materials_sheen `sheenRoughnessFactor` (perceptual; Charlie α = its square).
+        pub sheen_roughness: f32,
+        /// KHR_materials_sheen `sheenColorFactor` (black: no sheen).
+        pub sheen_color: [f32; 3],
+        /// KHR_materials_sheen textures: colour (RGB, sRGB) and roughness (A).
+        pub sheen_color_texture: u32,
+        pub sheen_roughness_texture: u32,
         pub _pad0: u32,
         pub _pad1: u32,
         pub _pad2: u32,
+    }
+}
+
+impl Material {
+    /// Every texture input (an index into the [`TextureBinding`] array, or
+    /// [`INVALID_INDEX`]).
+    pub fn texture_inputs(&self) -> [u32; 12] {
+        [
+            self.base_color_texture,
+            self.metallic_roughness_texture,
+            self.normal_texture,
+            self.emissive_texture,
+            self.transmission_texture,
+            self.specular_texture,
+            self.specular_color_texture,
+            self.clearcoat_texture,
+            self.clearcoat_roughness_texture,
+            self.clearcoat_normal_texture,
+            self.sheen_color_texture,
+            self.sheen_roughness_texture,
+        ]
+    }
+
+    /// Does a normal map (the base's or the coat's) need the triangle's tangent frame?
+    pub fn is_normal_mapped(&self) -> bool {
+        self.normal_texture != INVALID_INDEX || self.clearcoat_normal_texture != INVALID_INDEX
     }
 }
 

@@ -78,6 +78,18 @@ pub struct MaterialDesc {
     pub specular_texture: Option<TextureSlot>,
     pub specular_color_texture: Option<TextureSlot>,
     pub thickness_texture: Option<TextureSlot>,
+    /// KHR_materials_clearcoat (factor 0 when absent: no coat).
+    pub clearcoat: f32,
+    pub clearcoat_roughness: f32,
+    pub clearcoat_texture: Option<TextureSlot>,
+    pub clearcoat_roughness_texture: Option<TextureSlot>,
+    pub clearcoat_normal_texture: Option<TextureSlot>,
+    pub clearcoat_normal_scale: f32,
+    /// KHR_materials_sheen (black when absent: no sheen).
+    pub sheen_color: Vec3,
+    pub sheen_roughness: f32,
+    pub sheen_color_texture: Option<TextureSlot>,
+    pub sheen_roughness_texture: Option<TextureSlot>,
 }
 
 impl Default for MaterialDesc {
@@ -110,6 +122,16 @@ impl Default for MaterialDesc {
             specular_texture: None,
             specular_color_texture: None,
             thickness_texture: None,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
+            clearcoat_texture: None,
+            clearcoat_roughness_texture: None,
+            clearcoat_normal_texture: None,
+            clearcoat_normal_scale: 1.0,
+            sheen_color: Vec3::ZERO,
+            sheen_roughness: 0.0,
+            sheen_color_texture: None,
+            sheen_roughness_texture: None,
         }
     }
 }
@@ -119,8 +141,8 @@ impl Default for MaterialDesc {
 const IOR_INFINITE_STANDIN: f32 = 1e4;
 
 impl MaterialDesc {
-    /// Does the material refer to any texture?
-    pub fn uses_textures(&self) -> bool {
+    /// Every texture slot, read-only.
+    fn texture_slots(&self) -> [&Option<TextureSlot>; 14] {
         [
             &self.base_color_texture,
             &self.metallic_roughness_texture,
@@ -131,27 +153,48 @@ impl MaterialDesc {
             &self.specular_texture,
             &self.specular_color_texture,
             &self.thickness_texture,
+            &self.clearcoat_texture,
+            &self.clearcoat_roughness_texture,
+            &self.clearcoat_normal_texture,
+            &self.sheen_color_texture,
+            &self.sheen_roughness_texture,
         ]
-        .iter()
-        .any(|t| t.is_some())
+    }
+
+    /// Does the material refer to any texture?
+    pub fn uses_textures(&self) -> bool {
+        self.texture_slots().iter().any(|t| t.is_some())
     }
 
     /// The same material with every texture index shifted by `offset` (scenes merged).
     pub fn with_texture_offset(&self, offset: usize) -> MaterialDesc {
-        let shift =
-            |t: &Option<TextureSlot>| t.clone().map(|t| TextureSlot { texture: t.texture + offset, ..t });
-        MaterialDesc {
-            base_color_texture: shift(&self.base_color_texture),
-            metallic_roughness_texture: shift(&self.metallic_roughness_texture),
-            normal_texture: shift(&self.normal_texture),
-            occlusion_texture: shift(&self.occlusion_texture),
-            emissive_texture: shift(&self.emissive_texture),
-            transmission_texture: shift(&self.transmission_texture),
-            specular_texture: shift(&self.specular_texture),
-            specular_color_texture: shift(&self.specular_color_texture),
-            thickness_texture: shift(&self.thickness_texture),
-            ..self.clone()
+        let mut m = self.clone();
+        for slot in [
+            &mut m.base_color_texture,
+            &mut m.metallic_roughness_texture,
+            &mut m.normal_texture,
+            &mut m.occlusion_texture,
+            &mut m.emissive_texture,
+            &mut m.transmission_texture,
+            &mut m.specular_texture,
+            &mut m.specular_color_texture,
+            &mut m.thickness_texture,
+            &mut m.clearcoat_texture,
+            &mut m.clearcoat_roughness_texture,
+            &mut m.clearcoat_normal_texture,
+            &mut m.sheen_color_texture,
+            &mut m.sheen_roughness_texture,
+        ] {
+            if let Some(t) = slot.as_mut() {
+                t.texture += offset;
+            }
         }
+        m
+    }
+
+    /// Does the material need a tangent frame (a normal map on the base or on the coat)?
+    pub fn needs_tangents(&self) -> Option<&TextureSlot> {
+        self.normal_texture.as_ref().or(self.clearcoat_normal_texture.as_ref())
     }
 
     pub fn is_emissive(&self) -> bool {
@@ -230,6 +273,16 @@ impl MaterialDesc {
             specular_color_texture: bind(&self.specular_color_texture),
             normal_scale: self.normal_scale,
             alpha_cutoff: self.alpha_cutoff,
+            clearcoat: self.clearcoat,
+            clearcoat_roughness: self.clearcoat_roughness,
+            clearcoat_texture: bind(&self.clearcoat_texture),
+            clearcoat_roughness_texture: bind(&self.clearcoat_roughness_texture),
+            clearcoat_normal_texture: bind(&self.clearcoat_normal_texture),
+            clearcoat_normal_scale: self.clearcoat_normal_scale,
+            sheen_roughness: self.sheen_roughness,
+            sheen_color: self.sheen_color.to_array(),
+            sheen_color_texture: bind(&self.sheen_color_texture),
+            sheen_roughness_texture: bind(&self.sheen_roughness_texture),
             _pad0: 0,
             _pad1: 0,
             _pad2: 0,

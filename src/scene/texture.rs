@@ -239,7 +239,8 @@ pub fn emitted_radiance(arrays: &TextureArrays, material: &Material, triangle: u
 /// `material` with its textures applied at UVs `uv` (glTF 2.0 Appendix B and the
 /// extensions' definitions): baseColor (sRGB) scales base colour and alpha; metallicRoughness
 /// scales metallic by B and roughness by G; emissive (sRGB) scales emission; transmission by
-/// R; specular by A; specular colour (sRGB) by RGB. Occlusion is not applied: a path tracer
+/// R; specular by A; specular colour (sRGB) by RGB; clearcoat by R, clearcoat roughness by
+/// G; sheen colour (sRGB) by RGB, sheen roughness by A. Occlusion is not applied: a path tracer
 /// computes occlusion itself.
 pub fn textured_material(material: &Material, arrays: &TextureArrays, uv: (Vec2, Vec2)) -> Material {
     let mut m = *material;
@@ -263,6 +264,18 @@ pub fn textured_material(material: &Material, arrays: &TextureArrays, uv: (Vec2,
     }
     if let Some(t) = arrays.lookup(m.specular_color_texture, uv, true) {
         m.specular_color = (Vec3::from(m.specular_color) * t.truncate()).to_array();
+    }
+    if let Some(t) = arrays.lookup(m.clearcoat_texture, uv, false) {
+        m.clearcoat *= t.x;
+    }
+    if let Some(t) = arrays.lookup(m.clearcoat_roughness_texture, uv, false) {
+        m.clearcoat_roughness *= t.y;
+    }
+    if let Some(t) = arrays.lookup(m.sheen_color_texture, uv, true) {
+        m.sheen_color = (Vec3::from(m.sheen_color) * t.truncate()).to_array();
+    }
+    if let Some(t) = arrays.lookup(m.sheen_roughness_texture, uv, false) {
+        m.sheen_roughness *= t.w;
     }
     m
 }
