@@ -11,3 +11,4 @@ fn generate_camera_ray(width: u32, height: u32, x: u32, y: u32, u: vec2<f32>) ->
     }
     return Ray(vec3<f32>(0.0), normalize(camera.forward + right + up), F32_MAX);
 }
+

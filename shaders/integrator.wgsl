@@ -17,11 +17,13 @@ struct SurfaceInteraction {
     distance: f32,
     // UV sets 0 (xy) and 1 (zw).
     uv: vec4<f32>,
+    // Texture level-of-detail bases per UV set (`lod_bases`).
+    lod: vec2<f32>,
     // The clear coat's normal in the shading frame (+z without a coat).
     coat_normal: vec3<f32>,
 }
 
-fn surface_interaction(ray: Ray, hit: ClosestHit) -> SurfaceInteraction {
+fn surface_interaction(ray: Ray, hit: ClosestHit, cone_width: f32) -> SurfaceInteraction {
     let tri = triangles[hit.triangle];
     let b = hit.b;
     let p = b.x * tri.p0 + b.y * tri.p1 + b.z * tri.p2;
@@ -31,6 +33,7 @@ fn surface_interaction(ray: Ray, hit: ClosestHit) -> SurfaceInteraction {
     let front_face = dot(wo_world, n_geometric) > 0.0;
     let ng_facing = select(-n_geometric, n_geometric, front_face);
     let uv = triangle_uv(hit.triangle, b);
+    let lod = lod_bases(hit.triangle, length(cross(tri.p1 - tri.p0, tri.p2 - tri.p0)), cone_width, dot(wo_world, n_geometric));
     var n_front = n_geometric;
     if ((tri.flags & TRIANGLE_HAS_NORMALS) != 0u) {
         let n = normals[hit.triangle];
@@ -55,7 +58,7 @@ fn surface_interaction(ray: Ray, hit: ClosestHit) -> SurfaceInteraction {
     }
     var n_mapped = n_front;
     if (has_tangent_frame) {
-        n_mapped = map_normal(material.normal_texture, material.normal_scale, uv, tangent_frame, n_geometric);
+        n_mapped = map_normal(material.normal_texture, material.normal_scale, uv, lod, tangent_frame, n_geometric);
     }
     let ns = facing_normal(n_mapped, n_front, front_face, wo_world, ng_facing);
     let f = frame_from_z(ns);
@@ -64,21 +67,21 @@ fn surface_interaction(ray: Ray, hit: ClosestHit) -> SurfaceInteraction {
     if (FEATURE_CLEARCOAT && material.clearcoat > 0.0) {
         var n_coat = n_front;
         if (has_tangent_frame) {
-            n_coat = map_normal(material.clearcoat_normal_texture, material.clearcoat_normal_scale, uv, tangent_frame, n_geometric);
+            n_coat = map_normal(material.clearcoat_normal_texture, material.clearcoat_normal_scale, uv, lod, tangent_frame, n_geometric);
         }
         coat_normal = normalize(frame_to_local(f, facing_normal(n_coat, n_front, front_face, wo_world, ng_facing)));
     }
-    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), front_face, tri.material, tri.emitter, hit.t, uv, coat_normal);
+    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), front_face, tri.material, tri.emitter, hit.t, uv, lod, coat_normal);
 }
 
 // The normal map `texture` (or INVALID_INDEX: none) applied in `tf` (tangent, bitangent,
 // interpolated normal; glTF 2.0 §3.9.3), kept on the geometric front side; the interpolated
 // normal where there is no map.
-fn map_normal(texture: u32, scale: f32, uv: vec4<f32>, tf: Frame, n_geometric: vec3<f32>) -> vec3<f32> {
+fn map_normal(texture: u32, scale: f32, uv: vec4<f32>, lod: vec2<f32>, tf: Frame, n_geometric: vec3<f32>) -> vec3<f32> {
     if (texture == INVALID_INDEX) {
         return tf.z;
     }
-    let m = texture_lookup(texture, uv, false).xyz * 2.0 - vec3<f32>(1.0);
+    let m = texture_lookup_lod(texture, uv, lod, false).xyz * 2.0 - vec3<f32>(1.0);
     let mapped = try_normalize(tf.x * (m.x * scale) + tf.y * (m.y * scale) + tf.z * m.z);
     if (mapped.w == 0.0) {
         return tf.z;
@@ -105,8 +108,10 @@ fn poison() -> vec3<f32> {
     return vec3<f32>(bitcast<f32>(0x7fc00000u));
 }
 
-fn radiance(camera_ray: Ray) -> vec3<f32> {
+fn radiance(camera_ray: Ray, cone: vec2<f32>) -> vec3<f32> {
     var ray = camera_ray;
+    // Distance travelled along the path before the current ray: the cone keeps its spread.
+    var travelled = 0.0;
     var l = vec3<f32>(0.0);
     var beta = vec3<f32>(1.0);
     var depth = 0u;
@@ -131,19 +136,23 @@ fn radiance(camera_ray: Ray) -> vec3<f32> {
             }
             break;
         }
-        let si = surface_interaction(ray, hit);
-        let material = textured_material(materials[si.material], si.uv);
+        let si = surface_interaction(ray, hit, cone.x + cone.y * (travelled + hit.t));
+        travelled += si.distance;
+        let untextured = materials[si.material];
+        let material = textured_material(untextured, si.uv, si.lod);
 
         if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
             beta *= exp(-material.attenuation_coefficient * si.distance);
         }
 
-        if (max_element(material.emission) > 0.0 && (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
+        // Full weight: the cone's level of detail; weighted against light sampling: level 0,
+        // what light sampling sees (the CPU twin explains).
+        if (max_element(untextured.emission) > 0.0 && (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
             if (depth == 0u || prev_delta || si.emitter == INVALID_INDEX) {
                 l += beta * material.emission;
             } else {
                 let light_pdf = triangle_light_pdf(lights[si.emitter], triangles[hit.triangle], ray.origin, si.p);
-                l += beta * material.emission * power_heuristic(prev_pdf, light_pdf);
+                l += beta * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(prev_pdf, light_pdf);
             }
         }
 
@@ -228,10 +237,11 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     let pixel = y * frame.width + x;
     var p = film[pixel];
     rays_traced = 0u;
+    let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
     for (var k = 0u; k < frame.samples; k++) {
         rng_seed(x, y, frame.sample_offset + k, frame.seed);
         let ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
-        p = film_add_sample(p, radiance(ray));
+        p = film_add_sample(p, radiance(ray, cone));
     }
     film[pixel] = p;
     ray_counts[pixel] += rays_traced;
@@ -251,8 +261,9 @@ fn first_hit(@builtin(global_invocation_id) gid: vec3<u32>) {
     let hit = intersect_closest(ray, 0u);
     var out = FirstHit(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), INVALID_INDEX);
     if (hit.triangle != INVALID_INDEX) {
-        let si = surface_interaction(ray, hit);
-        out = FirstHit(si.frame.z, si.distance, textured_material(materials[si.material], si.uv).base_color, hit.triangle);
+        let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
+        let si = surface_interaction(ray, hit, cone.x + cone.y * hit.t);
+        out = FirstHit(si.frame.z, si.distance, textured_material(materials[si.material], si.uv, si.lod).base_color, hit.triangle);
     }
     first_hits[y * frame.width + x] = out;
 }

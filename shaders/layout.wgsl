@@ -132,8 +132,8 @@ struct FrameParams {
     light_count: u32,
     row_offset: u32,
     row_count: u32,
-    _pad0: u32,
-    _pad1: u32,
+    cone_width: f32,
+    cone_spread: f32,
 }
 
 struct FilmPixel {

@@ -1,5 +1,9 @@
 // Twin of src/scene/texture.rs: texture lookup (wrap modes, bilinear or nearest, sRGB
-// decoded per texel before filtering) and the material inputs it drives.
+// decoded per texel before filtering, trilinear between mip levels at a ray cone's level of
+// detail) and the material inputs it drives.
+
+const TEXTURE_LEVELS_SHIFT: u32 = 8u;
+const LOD_FINEST: f32 = -1000.0;
 
 fn wrap_texel(i: i32, size: u32, mode: u32) -> u32 {
     let n = i32(size);
@@ -33,12 +37,12 @@ fn texel_fetch(info: TextureInfo, x: u32, y: u32, srgb: bool) -> vec4<f32> {
 
 const MAX_TEXEL_COORDINATE: f32 = 16777216.0;
 
-fn texture_sample(info: TextureInfo, uv: vec2<f32>, srgb: bool) -> vec4<f32> {
+fn level_sample(info: TextureInfo, uv: vec2<f32>, srgb: bool, nearest: bool) -> vec4<f32> {
     let wrap_s = info.flags & 3u;
     let wrap_t = (info.flags >> 2u) & 3u;
     let x = clamp(uv.x * f32(info.width), -MAX_TEXEL_COORDINATE, MAX_TEXEL_COORDINATE);
     let y = clamp(uv.y * f32(info.height), -MAX_TEXEL_COORDINATE, MAX_TEXEL_COORDINATE);
-    if ((info.flags & TEXTURE_NEAREST) != 0u) {
+    if (nearest) {
         let i = wrap_texel(i32(floor(x)), info.width, wrap_s);
         let j = wrap_texel(i32(floor(y)), info.height, wrap_t);
         return texel_fetch(info, i, j, srgb);
@@ -58,6 +62,40 @@ fn texture_sample(info: TextureInfo, uv: vec2<f32>, srgb: bool) -> vec4<f32> {
     return top * (1.0 - ty) + bottom * ty;
 }
 
+fn texture_levels(info: TextureInfo) -> u32 {
+    return ((info.flags >> TEXTURE_LEVELS_SHIFT) & 15u) + 1u;
+}
+
+fn texture_level(info: TextureInfo, level: u32) -> TextureInfo {
+    var offset = info.offset;
+    var w = info.width;
+    var h = info.height;
+    for (var k = 0u; k < level; k++) {
+        offset += w * h;
+        w = max(w / 2u, 1u);
+        h = max(h / 2u, 1u);
+    }
+    return TextureInfo(offset, w, h, info.flags);
+}
+
+fn texture_sample(info: TextureInfo, uv: vec2<f32>, srgb: bool, lod_in: f32) -> vec4<f32> {
+    let levels = texture_levels(info);
+    // `!(lod > 0)` also catches a NaN λ.
+    if (levels == 1u || !(lod_in > 0.0)) {
+        return level_sample(info, uv, srgb, (info.flags & TEXTURE_NEAREST) != 0u);
+    }
+    let lod = min(lod_in, f32(levels - 1u));
+    let l0f = floor(lod);
+    let t = lod - l0f;
+    let l0 = u32(l0f);
+    let a = level_sample(texture_level(info, l0), uv, srgb, false);
+    if (t == 0.0 || l0 + 1u >= levels) {
+        return a;
+    }
+    let b = level_sample(texture_level(info, l0 + 1u), uv, srgb, false);
+    return a * (1.0 - t) + b * t;
+}
+
 // UV sets 0 (xy) and 1 (zw) of a triangle at barycentrics b.
 fn triangle_uv(triangle: u32, b: vec3<f32>) -> vec4<f32> {
     if (!FEATURE_TEXTURES) {
@@ -70,51 +108,77 @@ fn triangle_uv(triangle: u32, b: vec3<f32>) -> vec4<f32> {
 }
 
 fn texture_lookup(binding_index: u32, uv: vec4<f32>, srgb: bool) -> vec4<f32> {
-    let binding = texture_bindings[binding_index];
-    let st = select(uv.xy, uv.zw, binding.tex_coord == 1u);
-    let t = vec2<f32>(dot(binding.row0, vec3<f32>(st, 1.0)), dot(binding.row1, vec3<f32>(st, 1.0)));
-    return texture_sample(texture_infos[binding.texture], t, srgb);
+    return texture_lookup_lod(binding_index, uv, vec2<f32>(LOD_FINEST), srgb);
 }
 
-fn textured_material(material: Material, uv: vec4<f32>) -> Material {
+fn texture_lookup_lod(binding_index: u32, uv: vec4<f32>, lod_base: vec2<f32>, srgb: bool) -> vec4<f32> {
+    let binding = texture_bindings[binding_index];
+    let second = binding.tex_coord == 1u;
+    let st = select(uv.xy, uv.zw, second);
+    let t = vec2<f32>(dot(binding.row0, vec3<f32>(st, 1.0)), dot(binding.row1, vec3<f32>(st, 1.0)));
+    let info = texture_infos[binding.texture];
+    let det = abs(binding.row0.x * binding.row1.y - binding.row0.y * binding.row1.x);
+    let lod = select(lod_base.x, lod_base.y, second) + 0.5 * log2(f32(info.width) * f32(info.height) * det);
+    return texture_sample(info, t, srgb, lod);
+}
+
+// Twin of `lod_bases`: ½ log₂(uv area / world area) + log₂(cone width / |cos θ|) per UV set.
+fn lod_bases(triangle: u32, world_double_area: f32, cone_width: f32, cos_theta: f32) -> vec2<f32> {
+    if (!FEATURE_TEXTURES) {
+        return vec2<f32>(LOD_FINEST);
+    }
+    let t = texcoords[triangle];
+    let footprint = cone_width / max(abs(cos_theta), 1e-4);
+    let a0 = abs(cross2(t.uv0[1] - t.uv0[0], t.uv0[2] - t.uv0[0]));
+    let a1 = abs(cross2(t.uv1[1] - t.uv1[0], t.uv1[2] - t.uv1[0]));
+    let l0 = 0.5 * log2(a0 / world_double_area) + log2(footprint);
+    let l1 = 0.5 * log2(a1 / world_double_area) + log2(footprint);
+    return vec2<f32>(select(LOD_FINEST, l0, is_finite_f32(l0)), select(LOD_FINEST, l1, is_finite_f32(l1)));
+}
+
+fn cross2(a: vec2<f32>, b: vec2<f32>) -> f32 {
+    return a.x * b.y - a.y * b.x;
+}
+
+fn textured_material(material: Material, uv: vec4<f32>, lod: vec2<f32>) -> Material {
     var m = material;
     if (!FEATURE_TEXTURES) {
         return m;
     }
     if (m.base_color_texture != INVALID_INDEX) {
-        let t = texture_lookup(m.base_color_texture, uv, true);
+        let t = texture_lookup_lod(m.base_color_texture, uv, lod, true);
         m.base_color *= t.xyz;
         m.alpha *= t.w;
     }
     if (m.metallic_roughness_texture != INVALID_INDEX) {
-        let t = texture_lookup(m.metallic_roughness_texture, uv, false);
+        let t = texture_lookup_lod(m.metallic_roughness_texture, uv, lod, false);
         m.metallic *= t.z;
         m.roughness *= t.y;
         m.alpha_roughness = alpha_from_roughness(m.roughness);
     }
     if (m.emissive_texture != INVALID_INDEX) {
-        m.emission *= texture_lookup(m.emissive_texture, uv, true).xyz;
+        m.emission *= texture_lookup_lod(m.emissive_texture, uv, lod, true).xyz;
     }
     if (m.transmission_texture != INVALID_INDEX) {
-        m.transmission *= texture_lookup(m.transmission_texture, uv, false).x;
+        m.transmission *= texture_lookup_lod(m.transmission_texture, uv, lod, false).x;
     }
     if (m.specular_texture != INVALID_INDEX) {
-        m.specular_factor *= texture_lookup(m.specular_texture, uv, false).w;
+        m.specular_factor *= texture_lookup_lod(m.specular_texture, uv, lod, false).w;
     }
     if (m.specular_color_texture != INVALID_INDEX) {
-        m.specular_color *= texture_lookup(m.specular_color_texture, uv, true).xyz;
+        m.specular_color *= texture_lookup_lod(m.specular_color_texture, uv, lod, true).xyz;
     }
     if (m.clearcoat_texture != INVALID_INDEX) {
-        m.clearcoat *= texture_lookup(m.clearcoat_texture, uv, false).x;
+        m.clearcoat *= texture_lookup_lod(m.clearcoat_texture, uv, lod, false).x;
     }
     if (m.clearcoat_roughness_texture != INVALID_INDEX) {
-        m.clearcoat_roughness *= texture_lookup(m.clearcoat_roughness_texture, uv, false).y;
+        m.clearcoat_roughness *= texture_lookup_lod(m.clearcoat_roughness_texture, uv, lod, false).y;
     }
     if (m.sheen_color_texture != INVALID_INDEX) {
-        m.sheen_color *= texture_lookup(m.sheen_color_texture, uv, true).xyz;
+        m.sheen_color *= texture_lookup_lod(m.sheen_color_texture, uv, lod, true).xyz;
     }
     if (m.sheen_roughness_texture != INVALID_INDEX) {
-        m.sheen_roughness *= texture_lookup(m.sheen_roughness_texture, uv, false).w;
+        m.sheen_roughness *= texture_lookup_lod(m.sheen_roughness_texture, uv, lod, false).w;
     }
     return m;
 }

@@ -16,11 +16,12 @@ use crate::bvh::ClosestHit;
 use crate::geometry::{spawn_ray, triangle_error_bound, Frame, Ray};
 use crate::light::{environment_lookup, sample_light, triangle_light_pdf};
 use crate::sampling::{power_heuristic, Rng};
+use crate::scene::camera::RayCone;
 use crate::scene::layout::{
     FirstHit, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, TRIANGLE_HAS_NORMALS,
     TRIANGLE_HAS_TANGENTS,
 };
-use crate::scene::texture::textured_material;
+use crate::scene::texture::{emitted_radiance, textured_material, LOD_FINEST};
 use crate::scene::{oct_decode, FlatScene};
 
 /// A hard stop against runaway paths (e.g. a non-finite throughput that defeats Russian
@@ -67,12 +68,20 @@ pub struct SurfaceInteraction {
     pub distance: f32,
     /// UV sets 0 and 1 at the hit (zero without textures).
     pub uv: (Vec2, Vec2),
+    /// Texture level-of-detail bases per UV set (`texture::lod_bases`).
+    pub lod: Vec2,
     /// The clear coat's normal in the shading frame (+z without a coat).
     pub coat_normal: Vec3,
 }
 
-/// Builds the interaction for `hit` of `ray` (`ray.direction` unit length).
-pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> SurfaceInteraction {
+/// Builds the interaction for `hit` of `ray` (`ray.direction` unit length), whose ray cone
+/// is `cone_width` wide at the hit (texture level of detail, `src/scene/texture.rs`).
+pub fn surface_interaction(
+    scene: &FlatScene,
+    ray: &Ray,
+    hit: &ClosestHit,
+    cone_width: f32,
+) -> SurfaceInteraction {
     let tri = &scene.triangles[hit.triangle as usize];
     let (p0, p1, p2) = (Vec3::from(tri.p0), Vec3::from(tri.p1), Vec3::from(tri.p2));
     let h = &hit.hit;
@@ -84,7 +93,12 @@ pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> Su
     let ng_facing = if front_face { n_geometric } else { -n_geometric };
     let b = Vec3::new(h.b0, h.b1, h.b2);
     let textures = scene.texture_arrays();
-    let uv = if scene.features.textures { textures.uv(hit.triangle, b) } else { (Vec2::ZERO, Vec2::ZERO) };
+    let (uv, lod) = if scene.features.textures {
+        let cos_theta = wo_world.dot(n_geometric);
+        (textures.uv(hit.triangle, b), textures.lod_bases(hit.triangle, [p0, p1, p2], cone_width, cos_theta))
+    } else {
+        ((Vec2::ZERO, Vec2::ZERO), Vec2::splat(LOD_FINEST))
+    };
     // The shading normal on the geometric front side: interpolated vertex normals, then the
     // normal map in their tangent frame (glTF 2.0 §3.9.3: n = T·x + B·y + N·z with
     // B = (N × T)·w, the map's x and y scaled by normalTexture.scale).
@@ -112,7 +126,7 @@ pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> Su
     };
     let map_normal = |texture: u32, scale: f32| -> Option<Vec3> {
         let (tangent, bitangent) = tangent_frame?;
-        let texel = textures.lookup(texture, uv, false)?;
+        let texel = textures.lookup_lod(texture, uv, lod, false)?;
         let m = texel.truncate() * 2.0 - Vec3::ONE;
         let mapped = (tangent * (m.x * scale) + bitangent * (m.y * scale) + n_front * m.z).try_normalize()?;
         Some(if mapped.dot(n_geometric) < 0.0 { n_front } else { mapped })
@@ -147,19 +161,24 @@ pub fn surface_interaction(scene: &FlatScene, ray: &Ray, hit: &ClosestHit) -> Su
         emitter: tri.emitter,
         distance: h.t,
         uv,
+        lod,
         coat_normal,
     }
 }
 
-/// One path's radiance estimate along camera ray `ray` (unit direction). `rays` counts the
-/// rays traced (closest-hit and shadow), as the GPU kernel counts them.
+/// One path's radiance estimate along camera ray `ray` (unit direction) with ray cone
+/// `cone`. `rays` counts the rays traced (closest-hit and shadow), as the GPU kernel counts
+/// them.
 pub fn radiance(
     scene: &FlatScene,
     settings: &IntegratorSettings,
     mut ray: Ray,
+    cone: RayCone,
     rng: &mut Rng,
     rays: &mut u32,
 ) -> Vec3 {
+    // Distance travelled along the path before the current ray: the cone keeps its spread.
+    let mut travelled = 0.0f32;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let mut depth = 0u32;
@@ -188,15 +207,16 @@ pub fn radiance(
             }
             break;
         };
-        let si = surface_interaction(scene, &ray, &hit);
+        let si = surface_interaction(scene, &ray, &hit, cone.width_at(travelled + hit.hit.t));
+        travelled += si.distance;
         // Untextured scenes skip the per-hit copy (the kernel's FEATURE_TEXTURES does the same).
+        let untextured = &scene.materials[si.material as usize];
         let textured;
         let material = if scene.features.textures {
-            textured =
-                textured_material(&scene.materials[si.material as usize], &scene.texture_arrays(), si.uv);
+            textured = textured_material(untextured, &scene.texture_arrays(), si.uv, si.lod);
             &textured
         } else {
-            &scene.materials[si.material as usize]
+            untextured
         };
 
         // Beer–Lambert absorption inside a refracting solid: a ray reaching a back face has
@@ -207,15 +227,21 @@ pub fn radiance(
             beta *= (-sigma * si.distance).exp();
         }
 
-        // Emission, one-sided unless the material is double-sided.
-        let emission = Vec3::from(material.emission);
-        if emission.max_element() > 0.0 && (si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0) {
+        // Emission, one-sided unless the material is double-sided. Counted in full it is read
+        // at the cone's level of detail; weighted against light sampling it is read at level
+        // 0, the radiance light sampling sees, so the two estimators share one integrand.
+        if Vec3::from(untextured.emission).max_element() > 0.0
+            && (si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0)
+        {
             if depth == 0 || prev_delta || si.emitter == INVALID_INDEX {
-                l += beta * emission;
+                l += beta * Vec3::from(material.emission);
             } else {
                 let light = &scene.lights[si.emitter as usize];
                 let tri = &scene.triangles[hit.triangle as usize];
                 let light_pdf = triangle_light_pdf(light, tri, ray.origin, si.p);
+                let b = Vec3::new(hit.hit.b0, hit.hit.b1, hit.hit.b2);
+                let emission =
+                    emitted_radiance(&scene.texture_arrays(), untextured, hit.triangle as usize, b);
                 l += beta * emission * power_heuristic(prev_pdf, light_pdf);
             }
         }
@@ -283,12 +309,14 @@ pub fn radiance(
 }
 
 /// What the camera ray of sample 0 of pixel `(x, y)` hits (the first-hit AOV).
+/// The first-hit AOV reads textures at the level of detail of a one-sample render.
 pub fn first_hit(scene: &FlatScene, width: u32, height: u32, x: u32, y: u32, seed: u32) -> FirstHit {
     let mut rng = Rng::new(x, y, 0, seed);
     let ray = crate::scene::camera::generate_camera_ray(&scene.camera, width, height, x, y, rng.next_2d());
+    let cone = crate::scene::camera::camera_ray_cone(&scene.camera, height, 1);
     match scene.intersect_closest(&ray, 0) {
         Some(hit) => {
-            let si = surface_interaction(scene, &ray, &hit);
+            let si = surface_interaction(scene, &ray, &hit, cone.width_at(hit.hit.t));
             FirstHit {
                 normal: si.frame.z.to_array(),
                 distance: si.distance,
@@ -296,6 +324,7 @@ pub fn first_hit(scene: &FlatScene, width: u32, height: u32, x: u32, y: u32, see
                     &scene.materials[si.material as usize],
                     &scene.texture_arrays(),
                     si.uv,
+                    si.lod,
                 )
                 .base_color,
                 triangle: hit.triangle,

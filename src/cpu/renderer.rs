@@ -41,6 +41,7 @@ impl Backend for CpuBackend<'_> {
         let (width, height, seed) = (s.width, s.height, s.seed);
         let integrator =
             IntegratorSettings { max_depth: s.max_depth.unwrap_or(u32::MAX), rr_min_depth: s.rr_min_depth };
+        let cone = crate::scene::camera::camera_ray_cone(&scene.camera, height, s.spp);
         self.film
             .pixels
             .par_chunks_mut(width as usize)
@@ -58,7 +59,7 @@ impl Backend for CpuBackend<'_> {
                             y as u32,
                             rng.next_2d(),
                         );
-                        let l = radiance(scene, &integrator, ray, &mut rng, rays);
+                        let l = radiance(scene, &integrator, ray, cone, &mut rng, rays);
                         film_add_sample(pixel, l);
                     }
                 }

@@ -34,6 +34,7 @@ pub struct GpuBackend {
     ray_counts: wgpu::Buffer,
     settings: RenderSettings,
     light_count: u32,
+    camera: crate::scene::layout::Camera,
     /// Measured seconds per pixel-sample, steering submit sizes.
     seconds_per_sample: Option<f64>,
     /// Wall time of uploading the scene.
@@ -193,6 +194,7 @@ impl GpuBackend {
             ray_counts,
             settings: settings.clone(),
             light_count: scene.lights.len() as u32,
+            camera: scene.camera,
             seconds_per_sample: None,
             upload_seconds: start.elapsed().as_secs_f64(),
             ctx,
@@ -205,6 +207,8 @@ impl GpuBackend {
     }
 
     fn frame_params(&self, sample_offset: u32, samples: u32, row_offset: u32, row_count: u32) -> FrameParams {
+        let cone =
+            crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, self.settings.spp);
         FrameParams {
             width: self.settings.width,
             height: self.settings.height,
@@ -216,8 +220,8 @@ impl GpuBackend {
             light_count: self.light_count,
             row_offset,
             row_count,
-            _pad0: 0,
-            _pad1: 0,
+            cone_width: cone.width,
+            cone_spread: cone.spread,
         }
     }
 
@@ -295,7 +299,15 @@ impl GpuBackend {
 
     /// What the camera ray of sample 0 of every pixel hits.
     pub fn first_hits(&mut self) -> Result<Vec<FirstHit>> {
-        self.dispatch(&self.kernel.first_hit, self.frame_params(0, 1, 0, self.settings.height))?;
+        // The first-hit AOV reads textures at a one-sample render's level of detail, as
+        // `cpu::first_hit` does.
+        let cone = crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, 1);
+        let params = FrameParams {
+            cone_width: cone.width,
+            cone_spread: cone.spread,
+            ..self.frame_params(0, 1, 0, self.settings.height)
+        };
+        self.dispatch(&self.kernel.first_hit, params)?;
         self.read_back(&self.first_hits)
     }
 }

@@ -135,6 +135,8 @@ mod tests {
             ("MATERIAL_ALPHA_MASK", layout::MATERIAL_ALPHA_MASK as f64),
             ("MATERIAL_ALPHA_BLEND", layout::MATERIAL_ALPHA_BLEND as f64),
             ("ALPHA_HASH_SALT", crate::scene::texture::ALPHA_HASH_SALT as f64),
+            ("TEXTURE_LEVELS_SHIFT", crate::scene::texture::TEXTURE_LEVELS_SHIFT as f64),
+            ("LOD_FINEST", crate::scene::texture::LOD_FINEST as f64),
             ("LIGHT_TRIANGLE", layout::LIGHT_TRIANGLE as f64),
             ("LIGHT_POINT", layout::LIGHT_POINT as f64),
             ("LIGHT_SPOT", layout::LIGHT_SPOT as f64),

@@ -89,6 +89,38 @@ impl CameraDesc {
     }
 }
 
+/// A ray cone for texture level of detail (Akenine-Möller et al. 2019, Ray Tracing Gems
+/// ch. 20): at distance t along a path the footprint is `width + spread · t`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayCone {
+    pub width: f32,
+    /// Spread angle (radians).
+    pub spread: f32,
+}
+
+impl RayCone {
+    /// The footprint's width after `distance` along the path.
+    pub fn width_at(&self, distance: f32) -> f32 {
+        self.width + self.spread * distance
+    }
+}
+
+/// The cone of a camera ray in an image `height` pixels tall rendered at `spp` samples per
+/// pixel: a pinhole's cone starts at width 0 with the pixel's spread angle
+/// atan(2 tan(yfov/2) / height) (eq. 30 there); an orthographic camera's has the pixel's
+/// width and no spread. Both are scaled by max(1/8, 1/√spp), as pbrt-v4 scales its ray
+/// differentials (`RayIntegrator::EvaluatePixelSample`): with many samples the pixel is
+/// integrated by the samples themselves, so each needs to filter only its share of it.
+pub fn camera_ray_cone(camera: &layout::Camera, height: u32, spp: u32) -> RayCone {
+    let pixel = 2.0 * camera.half_height / height as f32;
+    let scale = (1.0 / (spp.max(1) as f32).sqrt()).max(0.125);
+    if camera.projection == PROJECTION_ORTHOGRAPHIC {
+        RayCone { width: pixel * scale, spread: 0.0 }
+    } else {
+        RayCone { width: 0.0, spread: pixel.atan() * scale }
+    }
+}
+
 /// The camera ray through image position `(x + u.x, y + u.y)` (pixels, y down) of a
 /// `width × height` image: a box pixel filter with one uniformly placed sample. Direction
 /// is unit length, so `t` is distance.

@@ -89,7 +89,14 @@ impl FlatScene {
             scene.positions.chunks_exact(3).map(|t| [rel(t[0]), rel(t[1]), rel(t[2])]).collect();
         let bvh = bvh::build(&positions);
 
-        let textures = FlatTextures::build(&scene.images, &scene.textures);
+        // Images some material reads as sRGB colour: their mip levels average in linear light.
+        let mut srgb_images = vec![false; scene.images.len()];
+        for t in scene.materials.iter().flat_map(|m| m.srgb_textures()) {
+            if let Some(i) = scene.textures.get(t).and_then(|t| t.image) {
+                srgb_images[i] = true;
+            }
+        }
+        let textures = FlatTextures::build(&scene.images, &scene.textures, &srgb_images);
         let mut texture_bindings = Vec::new();
         let usable = |t: usize| scene.textures.get(t).is_some_and(|t| t.image.is_some());
         let materials: Vec<layout::Material> =

@@ -605,6 +605,11 @@ fn load_images_and_textures(
                 wrap_s: wrap_mode(sampler.wrap_s()),
                 wrap_t: wrap_mode(sampler.wrap_t()),
                 nearest: sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+                // Without a minFilter the renderer chooses: mip maps.
+                mipmaps: !matches!(
+                    sampler.min_filter(),
+                    Some(gltf::texture::MinFilter::Nearest | gltf::texture::MinFilter::Linear)
+                ),
             }
         })
         .collect();

@@ -354,8 +354,10 @@ gpu_struct! {
         pub row_offset: u32,
         /// Rows in this dispatch.
         pub row_count: u32,
-        pub _pad0: u32,
-        pub _pad1: u32,
+        /// The camera rays' cone for texture level of detail (`scene::camera::RayCone`):
+        /// width at the camera and spread angle.
+        pub cone_width: f32,
+        pub cone_spread: f32,
     }
 }
 

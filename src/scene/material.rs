@@ -161,6 +161,19 @@ impl MaterialDesc {
         ]
     }
 
+    /// The glTF textures this material reads as sRGB colour (baseColor, emissive, specular
+    /// colour, sheen colour).
+    pub fn srgb_textures(&self) -> impl Iterator<Item = usize> + '_ {
+        [
+            &self.base_color_texture,
+            &self.emissive_texture,
+            &self.specular_color_texture,
+            &self.sheen_color_texture,
+        ]
+        .into_iter()
+        .filter_map(|t| t.as_ref().map(|t| t.texture))
+    }
+
     /// Does the material refer to any texture?
     pub fn uses_textures(&self) -> bool {
         self.texture_slots().iter().any(|t| t.is_some())

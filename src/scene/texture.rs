@@ -6,6 +6,22 @@
 //! encoded (decoded per texel with the exact IEC 61966-2-1 curve, before filtering); every
 //! other input is linear. Filtering is bilinear, or nearest when the sampler's `magFilter` is
 //! NEAREST; wrap modes REPEAT, CLAMP_TO_EDGE and MIRRORED_REPEAT per axis.
+//!
+//! Level of detail: every image carries its mip chain (2×2 box filter, averaged in linear
+//! light for sRGB images) unless its sampler's `minFilter` forbids mipmaps, and a lookup
+//! blends the two levels around λ (trilinear). λ comes from a ray cone (Akenine-Möller,
+//! Nilsson, Andersson, Barré-Brisebois, Toth & Karras 2019, "Texture Level of Detail
+//! Strategies for Real-Time Ray Tracing", Ray Tracing Gems ch. 20, eq. 34):
+//!
+//! ```text
+//! λ = ½ log₂(t_a / p_a) + log₂ w − log₂ |n̂ · d̂|,   t_a = W·H·|det T|·uv area, p_a = world area
+//! ```
+//!
+//! with w the cone's width at the hit. The cone starts at the camera with the pixel's
+//! spread angle and keeps it along the whole path: bounces add neither the surface's
+//! curvature nor the BSDF's spread, which under-filters indirect lookups (the low-bias side;
+//! pbrt-v4 likewise sizes secondary footprints from the camera's). Lookups that must agree
+//! with light sampling (emission under MIS, alpha inside traversal) read level 0.
 
 use glam::{Vec2, Vec3, Vec4};
 
@@ -34,6 +50,8 @@ pub struct TextureDesc {
     pub wrap_s: u32,
     pub wrap_t: u32,
     pub nearest: bool,
+    /// Minified through mip maps (glTF `minFilter` absent or a `*_MIPMAP_*` mode).
+    pub mipmaps: bool,
 }
 
 /// The most texel bytes the flattened array may hold: below lavapipe's 128 MiB storage
@@ -51,57 +69,129 @@ pub struct FlatTextures {
     pub downscaled: u32,
 }
 
-/// Halves an image (2×2 box filter; odd sizes keep their last row/column).
-fn halve(image: &ImageDesc) -> ImageDesc {
+/// Halves an image (2×2 box filter; odd sizes keep their last row/column), averaging in
+/// linear light when `srgb` (alpha is always linear).
+fn halve(image: &ImageDesc, srgb: bool) -> ImageDesc {
     let (w, h) = ((image.width / 2).max(1), (image.height / 2).max(1));
     let mut out = vec![0u8; (w * h * 4) as usize];
     for y in 0..h {
         for x in 0..w {
             for c in 0..4 {
-                let mut sum = 0u32;
+                let linear = srgb && c < 3;
+                let mut sum = 0.0f32;
                 for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                     let sx = (2 * x + dx).min(image.width - 1);
                     let sy = (2 * y + dy).min(image.height - 1);
-                    sum += image.rgba8[((sy * image.width + sx) * 4 + c) as usize] as u32;
+                    let v = image.rgba8[((sy * image.width + sx) * 4 + c) as usize] as f32 / 255.0;
+                    sum += if linear { srgb_decode(v) } else { v };
                 }
-                out[((y * w + x) * 4 + c) as usize] = ((sum + 2) / 4) as u8;
+                let mean = sum / 4.0;
+                let v = if linear { srgb_encode(mean) } else { mean };
+                out[((y * w + x) * 4 + c) as usize] = (v * 255.0).round().clamp(0.0, 255.0) as u8;
             }
         }
     }
     ImageDesc { name: image.name.clone(), width: w, height: h, rgba8: out }
 }
 
+/// The mip chain below `image`: halved until 1×1.
+fn mip_chain(image: &ImageDesc, srgb: bool) -> Vec<ImageDesc> {
+    let mut levels = vec![image.clone()];
+    while levels.last().is_some_and(|l| l.width > 1 || l.height > 1) && levels.len() < MAX_TEXTURE_LEVELS {
+        let next = halve(levels.last().unwrap(), srgb);
+        levels.push(next);
+    }
+    levels
+}
+
+/// Levels a mip chain may have (the level count is stored in 4 bits of
+/// [`TextureInfo::flags`]); 16 levels reach 1×1 from 32768².
+pub const MAX_TEXTURE_LEVELS: usize = 16;
+
+/// Where [`TextureInfo::flags`] keeps the level count minus one (4 bits).
+pub const TEXTURE_LEVELS_SHIFT: u32 = 8;
+
+/// How many mip levels texture `info` has (1: level 0 only).
+pub fn texture_levels(info: &TextureInfo) -> u32 {
+    ((info.flags >> TEXTURE_LEVELS_SHIFT) & 15) + 1
+}
+
+/// Level `level` of texture `info`, as a one-level descriptor: its levels are stored one
+/// after the other from `info.offset`, each `max(1, size >> level)` on a side.
+pub fn texture_level(info: &TextureInfo, level: u32) -> TextureInfo {
+    let mut offset = info.offset;
+    let (mut w, mut h) = (info.width, info.height);
+    for _ in 0..level {
+        offset += w * h;
+        w = (w / 2).max(1);
+        h = (h / 2).max(1);
+    }
+    TextureInfo { offset, width: w, height: h, flags: info.flags }
+}
+
 impl FlatTextures {
-    pub fn build(images: &[ImageDesc], textures: &[TextureDesc]) -> FlatTextures {
+    /// Flattens `images` (those some texture uses) with their mip chains; `srgb[i]` says
+    /// whether image `i` holds sRGB colour (averaged in linear light).
+    pub fn build(images: &[ImageDesc], textures: &[TextureDesc], srgb: &[bool]) -> FlatTextures {
         let mut images: Vec<ImageDesc> = images.to_vec();
         let used: Vec<bool> =
             (0..images.len()).map(|i| textures.iter().any(|t| t.image == Some(i))).collect();
+        let mipmapped: Vec<bool> =
+            (0..images.len()).map(|i| textures.iter().any(|t| t.image == Some(i) && t.mipmaps)).collect();
+        // A full chain adds at most a third to the level-0 texels (and a texel per level for
+        // 1-texel-wide images): budget for that.
         let bytes = |images: &[ImageDesc]| -> usize {
-            images.iter().zip(&used).filter(|(_, u)| **u).map(|(i, _)| i.rgba8.len()).sum()
+            images
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| used[*i])
+                .map(|(i, im)| {
+                    if mipmapped[i] {
+                        im.rgba8.len() * 4 / 3 + 4 * MAX_TEXTURE_LEVELS
+                    } else {
+                        im.rgba8.len()
+                    }
+                })
+                .sum()
         };
         let mut downscaled = 0;
         while bytes(&images) > TEXEL_BUDGET_BYTES {
-            images = images.iter().map(halve).collect();
+            images = images.iter().enumerate().map(|(i, im)| halve(im, srgb.get(i) == Some(&true))).collect();
             downscaled += 1;
         }
         let mut texels = Vec::new();
         let mut offsets = vec![0u32; images.len()];
+        let mut levels = vec![1u32; images.len()];
         for (i, image) in images.iter().enumerate() {
             if !used[i] {
                 continue;
             }
             offsets[i] = texels.len() as u32;
-            texels.extend(image.rgba8.chunks_exact(4).map(|p| u32::from_le_bytes([p[0], p[1], p[2], p[3]])));
+            let chain =
+                if mipmapped[i] { mip_chain(image, srgb.get(i) == Some(&true)) } else { vec![image.clone()] };
+            levels[i] = chain.len() as u32;
+            for level in &chain {
+                texels.extend(
+                    level.rgba8.chunks_exact(4).map(|p| u32::from_le_bytes([p[0], p[1], p[2], p[3]])),
+                );
+            }
         }
         let infos = textures
             .iter()
             .map(|t| match t.image {
-                Some(i) => TextureInfo {
-                    offset: offsets[i],
-                    width: images[i].width,
-                    height: images[i].height,
-                    flags: t.wrap_s | (t.wrap_t << 2) | if t.nearest { TEXTURE_NEAREST } else { 0 },
-                },
+                Some(i) => {
+                    // A texture that asks for no mipmaps reads level 0 of a shared chain.
+                    let count = if t.mipmaps { levels[i] } else { 1 };
+                    TextureInfo {
+                        offset: offsets[i],
+                        width: images[i].width,
+                        height: images[i].height,
+                        flags: t.wrap_s
+                            | (t.wrap_t << 2)
+                            | if t.nearest { TEXTURE_NEAREST } else { 0 }
+                            | ((count - 1) << TEXTURE_LEVELS_SHIFT),
+                    }
+                }
                 None => TextureInfo::default(),
             })
             .collect();
@@ -131,6 +221,15 @@ pub fn wrap_texel(i: i32, size: u32, mode: u32) -> u32 {
     }
 }
 
+/// The exact sRGB transfer function (IEC 61966-2-1), linear to encoded.
+pub fn srgb_encode(v: f32) -> f32 {
+    if v <= 0.003_130_8 {
+        v * 12.92
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
 /// The exact inverse sRGB transfer function (IEC 61966-2-1).
 pub fn srgb_decode(v: f32) -> f32 {
     if v <= 0.040_45 {
@@ -155,12 +254,13 @@ fn fetch(texels: &[u32], info: &TextureInfo, x: u32, y: u32, srgb: bool) -> Vec4
 /// an i32: clamp to ±2²⁴ texels before converting (the wrap then picks a texel as usual).
 const MAX_TEXEL_COORDINATE: f32 = 16_777_216.0;
 
-/// Samples texture `info` at `uv` (RGBA in [0, 1], colour decoded from sRGB when `srgb`).
-pub fn texture_sample(texels: &[u32], info: &TextureInfo, uv: Vec2, srgb: bool) -> Vec4 {
+/// Samples one level `info` at `uv` (RGBA in [0, 1], colour decoded from sRGB when `srgb`):
+/// bilinear, or nearest when `nearest`.
+fn level_sample(texels: &[u32], info: &TextureInfo, uv: Vec2, srgb: bool, nearest: bool) -> Vec4 {
     let (wrap_s, wrap_t) = (info.flags & 3, (info.flags >> 2) & 3);
     let x = (uv.x * info.width as f32).clamp(-MAX_TEXEL_COORDINATE, MAX_TEXEL_COORDINATE);
     let y = (uv.y * info.height as f32).clamp(-MAX_TEXEL_COORDINATE, MAX_TEXEL_COORDINATE);
-    if info.flags & TEXTURE_NEAREST != 0 {
+    if nearest {
         let i = wrap_texel(x.floor() as i32, info.width, wrap_s);
         let j = wrap_texel(y.floor() as i32, info.height, wrap_t);
         return fetch(texels, info, i, j, srgb);
@@ -179,20 +279,71 @@ pub fn texture_sample(texels: &[u32], info: &TextureInfo, uv: Vec2, srgb: bool) 
     top * (1.0 - ty) + bottom * ty
 }
 
-/// The texture value a material input reads at a point with UV sets `uv0`, `uv1`.
+/// λ at or below which a lookup reads level 0 alone (magnification, or no footprint).
+pub const LOD_FINEST: f32 = -1000.0;
+
+/// Samples texture `info` at `uv` and level of detail `lod` (λ, in levels; ≤ 0 reads level 0
+/// with the magnification filter, larger values blend the two levels around λ).
+pub fn texture_sample(texels: &[u32], info: &TextureInfo, uv: Vec2, srgb: bool, lod: f32) -> Vec4 {
+    let levels = texture_levels(info);
+    // A NaN λ reads level 0 too (the WGSL twin's `!(lod > 0)`).
+    if levels == 1 || lod.is_nan() || lod <= 0.0 {
+        return level_sample(texels, info, uv, srgb, info.flags & TEXTURE_NEAREST != 0);
+    }
+    let lod = lod.min((levels - 1) as f32);
+    let l0 = lod.floor();
+    let t = lod - l0;
+    let l0 = l0 as u32;
+    let a = level_sample(texels, &texture_level(info, l0), uv, srgb, false);
+    if t == 0.0 || l0 + 1 >= levels {
+        return a;
+    }
+    let b = level_sample(texels, &texture_level(info, l0 + 1), uv, srgb, false);
+    a * (1.0 - t) + b * t
+}
+
+/// The texture value a material input reads at a point with UV sets `uv0`, `uv1`, at the
+/// footprint `lod_base` (per UV set, see [`lod_bases`]; [`LOD_FINEST`] for level 0).
 pub fn texture_lookup(
     texels: &[u32],
     infos: &[TextureInfo],
     binding: &TextureBinding,
     uv0: Vec2,
     uv1: Vec2,
+    lod_base: Vec2,
     srgb: bool,
 ) -> Vec4 {
-    let uv = if binding.tex_coord == 1 { uv1 } else { uv0 };
+    let second = binding.tex_coord == 1;
+    let uv = if second { uv1 } else { uv0 };
     let r0 = binding.row0;
     let r1 = binding.row1;
     let t = Vec2::new(r0[0] * uv.x + r0[1] * uv.y + r0[2], r1[0] * uv.x + r1[1] * uv.y + r1[2]);
-    texture_sample(texels, &infos[binding.texture as usize], t, srgb)
+    let info = &infos[binding.texture as usize];
+    // λ = base + ½ log₂(W · H · |det T|): the texture's resolution and the transform's
+    // scaling of UV area.
+    let det = (r0[0] * r1[1] - r0[1] * r1[0]).abs();
+    let lod = (if second { lod_base.y } else { lod_base.x })
+        + 0.5 * (info.width as f32 * info.height as f32 * det).log2();
+    texture_sample(texels, info, t, srgb, lod)
+}
+
+/// The part of λ that depends on the hit, per UV set: ½ log₂(uv area / world area) +
+/// log₂(cone width / |cos θ|) (Akenine-Möller et al. 2019, eq. 34). `cos_theta` is the cosine
+/// between the ray and the geometric normal. Degenerate UVs or no footprint give
+/// [`LOD_FINEST`] (level 0); a grazing hit is bounded by the coarsest level later.
+pub fn lod_bases(uv: &TriangleTexcoords, world_double_area: f32, cone_width: f32, cos_theta: f32) -> Vec2 {
+    let base = |s: &[[f32; 2]; 3]| {
+        let (a, b, c) = (Vec2::from(s[0]), Vec2::from(s[1]), Vec2::from(s[2]));
+        let uv_area = (b - a).perp_dot(c - a).abs();
+        let footprint = cone_width / cos_theta.abs().max(1e-4);
+        let lod = 0.5 * (uv_area / world_double_area).log2() + footprint.log2();
+        if lod.is_finite() {
+            lod
+        } else {
+            LOD_FINEST
+        }
+    };
+    Vec2::new(base(&uv.uv0), base(&uv.uv1))
 }
 
 /// The arrays a texture lookup reads.
@@ -218,11 +369,39 @@ impl TextureArrays<'_> {
         }
     }
 
-    /// Material input `binding` (an index, or `INVALID_INDEX`: `None`) at UVs `uv`.
+    /// Material input `binding` (an index, or `INVALID_INDEX`: `None`) at UVs `uv`, level 0.
     pub fn lookup(&self, binding: u32, uv: (Vec2, Vec2), srgb: bool) -> Option<glam::Vec4> {
+        self.lookup_lod(binding, uv, Vec2::splat(LOD_FINEST), srgb)
+    }
+
+    /// Material input `binding` at UVs `uv` and footprint `lod_base` (see [`lod_bases`]).
+    pub fn lookup_lod(
+        &self,
+        binding: u32,
+        uv: (Vec2, Vec2),
+        lod_base: Vec2,
+        srgb: bool,
+    ) -> Option<glam::Vec4> {
         (binding != INVALID_INDEX).then(|| {
-            texture_lookup(self.texels, self.infos, &self.bindings[binding as usize], uv.0, uv.1, srgb)
+            texture_lookup(
+                self.texels,
+                self.infos,
+                &self.bindings[binding as usize],
+                uv.0,
+                uv.1,
+                lod_base,
+                srgb,
+            )
         })
+    }
+
+    /// λ bases of triangle `triangle` (corners `p`) for a ray cone of width `cone_width` at
+    /// the hit arriving at cosine `cos_theta` to the geometric normal.
+    pub fn lod_bases(&self, triangle: u32, p: [Vec3; 3], cone_width: f32, cos_theta: f32) -> Vec2 {
+        match self.texcoords.get(triangle as usize) {
+            Some(t) => lod_bases(t, (p[1] - p[0]).cross(p[2] - p[0]).length(), cone_width, cos_theta),
+            None => Vec2::splat(LOD_FINEST),
+        }
     }
 }
 
@@ -242,8 +421,14 @@ pub fn emitted_radiance(arrays: &TextureArrays, material: &Material, triangle: u
 /// R; specular by A; specular colour (sRGB) by RGB; clearcoat by R, clearcoat roughness by
 /// G; sheen colour (sRGB) by RGB, sheen roughness by A. Occlusion is not applied: a path tracer
 /// computes occlusion itself.
-pub fn textured_material(material: &Material, arrays: &TextureArrays, uv: (Vec2, Vec2)) -> Material {
+pub fn textured_material(
+    material: &Material,
+    arrays: &TextureArrays,
+    uv: (Vec2, Vec2),
+    lod: Vec2,
+) -> Material {
     let mut m = *material;
+    let arrays = &LodArrays { arrays, lod };
     if let Some(t) = arrays.lookup(m.base_color_texture, uv, true) {
         m.base_color = (Vec3::from(m.base_color) * t.truncate()).to_array();
         m.alpha *= t.w;
@@ -278,6 +463,18 @@ pub fn textured_material(material: &Material, arrays: &TextureArrays, uv: (Vec2,
         m.sheen_roughness *= t.w;
     }
     m
+}
+
+/// Lookups at one footprint (for [`textured_material`]).
+struct LodArrays<'a, 'b> {
+    arrays: &'a TextureArrays<'b>,
+    lod: Vec2,
+}
+
+impl LodArrays<'_, '_> {
+    fn lookup(&self, binding: u32, uv: (Vec2, Vec2), srgb: bool) -> Option<glam::Vec4> {
+        self.arrays.lookup_lod(binding, uv, self.lod, srgb)
+    }
 }
 
 /// Does a ray hit on `triangle` at barycentrics `b` count, by its material's alpha mode
@@ -334,22 +531,22 @@ mod tests {
     #[test]
     fn bilinear_hits_texel_centres_and_blends_between() {
         let (texels, info) = checker();
-        let at = |u: f32, v: f32| texture_sample(&texels, &info, Vec2::new(u, v), false).x;
+        let at = |u: f32, v: f32| texture_sample(&texels, &info, Vec2::new(u, v), false, LOD_FINEST).x;
         assert_eq!(at(0.25, 0.25), 0.0, "centre of texel (0, 0)");
         assert_eq!(at(0.75, 0.25), 1.0, "centre of texel (1, 0)");
         assert!((at(0.5, 0.25) - 0.5).abs() < 1e-6, "half way");
         // REPEAT: the left edge blends with the right column.
         assert!((at(0.0, 0.25) - 0.5).abs() < 1e-6);
         let nearest = TextureInfo { flags: TEXTURE_NEAREST, ..info };
-        assert_eq!(texture_sample(&texels, &nearest, Vec2::new(0.49, 0.1), false).x, 0.0);
-        assert_eq!(texture_sample(&texels, &nearest, Vec2::new(0.51, 0.1), false).x, 1.0);
+        assert_eq!(texture_sample(&texels, &nearest, Vec2::new(0.49, 0.1), false, LOD_FINEST).x, 0.0);
+        assert_eq!(texture_sample(&texels, &nearest, Vec2::new(0.51, 0.1), false, LOD_FINEST).x, 1.0);
     }
 
     #[test]
     fn srgb_is_decoded_per_texel() {
         let texels = vec![0xff80_8080u32];
         let info = TextureInfo { offset: 0, width: 1, height: 1, flags: 0 };
-        let c = texture_sample(&texels, &info, Vec2::splat(0.5), true);
+        let c = texture_sample(&texels, &info, Vec2::splat(0.5), true, LOD_FINEST);
         // 128/255 in sRGB is 0.2158605 linear (IEC 61966-2-1); alpha stays linear.
         assert!((c.x - 0.215_860_5).abs() < 1e-6, "{}", c.x);
         assert_eq!(c.w, 1.0);
@@ -364,13 +561,79 @@ mod tests {
             height: side,
             rgba8: vec![7; (side * side * 4) as usize],
         };
-        let textures = vec![TextureDesc { image: Some(0), wrap_s: 0, wrap_t: 0, nearest: false }; 1];
+        let textures =
+            vec![TextureDesc { image: Some(0), wrap_s: 0, wrap_t: 0, nearest: false, mipmaps: false }; 1];
         let flat = FlatTextures::build(
             &[image.clone(), image],
             &[textures[0].clone(), TextureDesc { image: Some(1), ..textures[0].clone() }],
+            &[false, false],
         );
         assert_eq!(flat.downscaled, 1, "two 64 MiB images halve once");
         assert!(flat.texels.len() * 4 <= TEXEL_BUDGET_BYTES);
         assert_eq!(flat.infos[1].width, side / 2);
+    }
+
+    #[test]
+    fn mip_levels_average_in_linear_light() {
+        // A 2×2 sRGB checker of black and white: its 1×1 level is linear 0.5, which sRGB
+        // encodes as 188 (not the 128 that averaging the codes would give).
+        let image = ImageDesc {
+            name: "checker".into(),
+            width: 2,
+            height: 2,
+            rgba8: [0u8, 0, 0, 255, 255, 255, 255, 255, 255, 255, 255, 255, 0, 0, 0, 255].to_vec(),
+        };
+        let chain = mip_chain(&image, true);
+        assert_eq!(chain.len(), 2);
+        assert_eq!(&chain[1].rgba8, &[188, 188, 188, 255]);
+        assert_eq!(
+            &mip_chain(&image, false)[1].rgba8,
+            &[128, 128, 128, 255],
+            "linear data averages its codes"
+        );
+    }
+
+    #[test]
+    fn trilinear_lookup_blends_the_levels_around_lod() {
+        let image = ImageDesc {
+            name: "checker".into(),
+            width: 2,
+            height: 2,
+            rgba8: [0u8, 0, 0, 255, 255, 255, 255, 255, 255, 255, 255, 255, 0, 0, 0, 255].to_vec(),
+        };
+        let texture = TextureDesc {
+            image: Some(0),
+            wrap_s: WRAP_REPEAT,
+            wrap_t: WRAP_REPEAT,
+            nearest: false,
+            mipmaps: true,
+        };
+        let flat = FlatTextures::build(&[image], &[texture], &[false]);
+        let info = &flat.infos[0];
+        assert_eq!(texture_levels(info), 2);
+        assert_eq!(flat.texels.len(), 5, "level 0 then level 1");
+        let centre = Vec2::new(0.25, 0.25); // the centre of black texel (0, 0)
+        let at = |lod: f32| texture_sample(&flat.texels, info, centre, false, lod).x;
+        assert_eq!(at(LOD_FINEST), 0.0);
+        assert_eq!(at(0.0), 0.0);
+        assert!((at(1.0) - 128.0 / 255.0).abs() < 1e-6, "coarsest level");
+        assert!((at(0.5) - 64.0 / 255.0).abs() < 1e-6, "half way");
+        assert!((at(7.0) - 128.0 / 255.0).abs() < 1e-6, "clamped to the coarsest level");
+        assert_eq!(at(f32::NAN), 0.0, "a NaN λ reads level 0");
+    }
+
+    #[test]
+    fn lod_is_zero_where_a_texel_covers_a_pixel_footprint() {
+        // A unit square with UVs over [0, 1]² (each triangle half of it) under a 256² texture:
+        // a footprint of 1/256 at normal incidence covers one texel, λ = 0; twice that, λ = 1;
+        // at 60° from the normal the footprint doubles again.
+        let uv = TriangleTexcoords { uv0: [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], uv1: [[0.0; 2]; 3] };
+        let world_double_area = 1.0;
+        let texture_term = 0.5 * (256.0f32 * 256.0).log2();
+        let lod = |w: f32, cos: f32| lod_bases(&uv, world_double_area, w, cos).x + texture_term;
+        assert!(lod(1.0 / 256.0, 1.0).abs() < 1e-5);
+        assert!((lod(2.0 / 256.0, 1.0) - 1.0).abs() < 1e-5);
+        assert!((lod(2.0 / 256.0, 0.5) - 2.0).abs() < 1e-5);
+        assert_eq!(lod_bases(&uv, world_double_area, 0.0, 1.0).x, LOD_FINEST, "no footprint: level 0");
     }
 }
