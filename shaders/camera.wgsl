@@ -7,8 +7,8 @@ fn generate_camera_ray(width: u32, height: u32, x: u32, y: u32, u: vec2<f32>) ->
     let right = camera.right * (ndc_x * camera.half_width);
     let up = camera.up * (ndc_y * camera.half_height);
     if (camera.projection == PROJECTION_ORTHOGRAPHIC) {
-        return Ray(right + up, camera.forward, F32_MAX);
+        return Ray(camera.position + right + up, camera.forward, F32_MAX);
     }
-    return Ray(vec3<f32>(0.0), normalize(camera.forward + right + up), F32_MAX);
+    return Ray(camera.position, normalize(camera.forward + right + up), F32_MAX);
 }
 

@@ -108,6 +108,8 @@ struct Camera {
     half_height: f32,
     forward: vec3<f32>,
     half_width: f32,
+    position: vec3<f32>,
+    _pad0: u32,
 }
 
 struct Environment {

@@ -22,7 +22,12 @@ pub mod light;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod session;
 pub mod stats;
+pub mod tev;
 
 pub use error::{Error, Result};
-pub use render::{render_progressive, render_progressive_with, Backend, RenderSettings, RenderStats};
+pub use render::{
+    render_progressive, render_progressive_from, render_progressive_with, Backend, RenderSettings,
+    RenderStats,
+};

@@ -8,10 +8,11 @@ use std::sync::Arc;
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use pathlight::film::{write_exr, write_png, RenderMetadata, Tonemap};
-use pathlight::gpu::{describe_adapter, enumerate_adapters, GpuBackend, GpuContext};
-use pathlight::scene::{FlatScene, LoadOptions, ViewSettings};
-use pathlight::{Backend, Error, RenderSettings};
+use pathlight::film::Tonemap;
+use pathlight::gpu::{describe_adapter, enumerate_adapters, GpuContext};
+use pathlight::scene::LoadOptions;
+use pathlight::session::{EnvironmentChoice, Session, SessionOptions};
+use pathlight::{Error, RenderSettings};
 
 /// `println!` for the command line's standard output: when the reader has gone away
 /// (`pathlight info | head -3`) the process ends quietly with status 141, as a Unix tool
@@ -200,6 +201,10 @@ struct RenderArgs {
     /// Stop once the relMSE predicted from the image's own variance is at most this.
     #[arg(long)]
     target_error: Option<f64>,
+    /// Stream progressive updates to the tev HDR viewer at HOST:PORT (default
+    /// 127.0.0.1:14158); a tev that is not running is a warning, not a failed render.
+    #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "HOST:PORT")]
+    tev: Option<String>,
 }
 
 /// Parses `R,G,B` (three finite, non-negative numbers).
@@ -355,30 +360,23 @@ fn run_info() -> Result<(), Error> {
 
 /// The image size: 512×512 by default; with only one side given, the other follows the
 /// camera's aspect ratio (square if the camera has none).
-fn image_size(width: Option<u32>, height: Option<u32>, aspect: Option<f64>) -> (u32, u32) {
-    let aspect = aspect.unwrap_or(1.0);
-    match (width, height) {
-        (Some(w), Some(h)) => (w, h),
-        (Some(w), None) => (w, ((w as f64 / aspect).round() as u32).max(1)),
-        (None, Some(h)) => (((h as f64 * aspect).round() as u32).max(1), h),
-        (None, None) => (512, 512),
-    }
-}
-
 fn check_output(path: &Path) -> Result<(), Error> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("exr") | Some("png") => Ok(()),
-        _ => Err(Error::Settings(format!("{}: output must end in .exr or .png", path.display()))),
+        Some("exr") | Some("png") => {}
+        _ => return Err(Error::Settings(format!("{}: output must end in .exr or .png", path.display()))),
     }
+    pathlight::film::check_writable(path)
 }
 
 fn run_render(args: RenderArgs) -> Result<(), Error> {
+    // Every output is checked before any work: a missing folder or a read-only target must
+    // not cost a whole render.
     for o in &args.output {
         check_output(o)?;
     }
     if let Some(log) = &args.log {
         match log.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-            Some("csv") | Some("json") => {}
+            Some("csv") | Some("json") => pathlight::film::check_writable(log)?,
             _ => return Err(Error::Settings(format!("{}: --log must end in .csv or .json", log.display()))),
         }
     }
@@ -387,87 +385,38 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     {
         return Err(Error::Settings("--time-limit and --target-error must be positive and finite".into()));
     }
-    let options = LoadOptions { allow_any_path: args.allow_any_path };
-    let (mut scene, warnings) = pathlight::scene::load_with(&args.scene, &options)?;
-    for w in &warnings {
+    let mut session = Session::open(&session_options(&args))?;
+    for w in &session.warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
-    if let Some(path) = &args.env {
-        if !args.env_intensity.is_finite() || args.env_intensity < 0.0 || !args.env_rotation.is_finite() {
-            return Err(Error::Settings("--env-intensity must be ≥ 0 and --env-rotation finite".into()));
-        }
-        let mut env = pathlight::light::EnvironmentDesc::load(path)?;
-        env.intensity = args.env_intensity;
-        env.rotation_degrees = args.env_rotation;
-        scene.environment = Some(env);
-    } else if let Some(rgb) = args.background {
-        scene.environment = Some(pathlight::light::EnvironmentDesc::constant(rgb));
+    eprintln!("{}", session.describe());
+    for note in session.backend_note.iter().chain(&session.backend_detail) {
+        eprintln!("{note}");
     }
-    let camera_aspect = match args.camera {
-        Some(i) => scene.cameras.get(i).and_then(|c| c.aspect_ratio()),
-        None => scene.cameras.first().and_then(|c| c.aspect_ratio()),
-    };
-    let (width, height) = image_size(args.width, args.height, camera_aspect);
-    let settings = RenderSettings {
-        width,
-        height,
-        spp: args.spp,
-        seed: args.seed,
-        max_depth: args.max_depth,
-        ..RenderSettings::default()
-    };
-    settings.validate()?;
-    let view = ViewSettings { camera: args.camera, aspect: width as f64 / height as f64 };
-    let flat = FlatScene::build(&scene, &view)?;
-    for w in flat.warnings() {
-        eprintln!("warning: {}: {w}", args.scene.display());
-    }
-    eprintln!(
-        "{}: {} triangles, {} lights, BVH {} nodes built in {:.3} s (SAH cost {:.2}), features: {}",
-        args.scene.display(),
-        flat.triangles.len(),
-        flat.lights.len(),
-        flat.bvh_stats.nodes,
-        flat.bvh_stats.build_seconds,
-        flat.bvh_stats.sah_cost,
-        flat.features.describe()
-    );
-    // --device names an adapter, so it asks for the GPU backend.
-    let choice = match (args.backend, &args.device) {
-        (BackendChoice::Auto, Some(_)) => BackendChoice::Gpu,
-        (BackendChoice::Auto, None) => {
-            let adapters = enumerate_adapters();
-            if pathlight::gpu::hardware_adapter(&adapters).is_some() {
-                BackendChoice::Gpu
-            } else {
-                let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
-                if names.is_empty() {
-                    eprintln!("backend auto: no Vulkan adapter found; rendering on the CPU backend");
-                } else {
-                    eprintln!(
-                        "backend auto: the only Vulkan adapter ({}) is a software rasteriser, slower here than the CPU backend; rendering on the CPU backend (--backend gpu forces it)",
-                        names.join(", ")
-                    );
-                }
-                BackendChoice::Cpu
+    let (width, height) = (session.settings.width, session.settings.height);
+    let reference = match &args.reference {
+        Some(path) => {
+            let image = pathlight::film::LinearImage::read(path)?;
+            if (image.width, image.height) != (width as usize, height as usize) {
+                return Err(Error::Settings(format!(
+                    "{}: the reference is {}×{}, the render {width}×{height}",
+                    path.display(),
+                    image.width,
+                    image.height
+                )));
             }
+            Some(image)
         }
-        (other, _) => other,
+        None => None,
     };
-    let mut backend: Box<dyn Backend + '_> = match choice {
-        BackendChoice::Gpu => {
-            let ctx = GpuContext::new(args.device.as_deref())?;
-            let gpu = GpuBackend::new(Arc::new(ctx), &flat, &settings)?;
-            eprintln!(
-                "kernel specialised to [{}] built in {:.2} s, scene uploaded in {:.3} s",
-                flat.features.describe(),
-                gpu.kernel_build_seconds(),
-                gpu.upload_seconds
-            );
-            Box::new(gpu)
-        }
-        _ => Box::new(pathlight::cpu::CpuBackend::new(&flat, &settings)),
-    };
+    let mut tev = args.tev.as_ref().map(|address| {
+        let address = if address.is_empty() { pathlight::tev::DEFAULT_ADDRESS } else { address.as_str() };
+        pathlight::tev::TevStream::connect(address, &tev_image_name(&args.scene), width, height)
+    });
+    if let Some(Err(e)) = &tev {
+        eprintln!("warning: --tev: {e}; rendering without it");
+    }
+    let mut tev = tev.take().and_then(|t| t.ok());
 
     // Ctrl-C stops after the pass in flight and still writes what was rendered; a second
     // Ctrl-C exits at once.
@@ -490,26 +439,14 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         )
         .expect("static template"),
     );
-    let reference = match &args.reference {
-        Some(path) => {
-            let image = pathlight::film::LinearImage::read(path)?;
-            if (image.width, image.height) != (width as usize, height as usize) {
-                return Err(Error::Settings(format!(
-                    "{}: the reference is {}×{}, the render {width}×{height}",
-                    path.display(),
-                    image.width,
-                    image.height
-                )));
-            }
-            Some(image)
-        }
-        None => None,
-    };
-    // Checkpoints: a log row at 1, 2, 4, … spp when asked for one, and the predicted error
-    // after every pass when --target-error may stop the render.
+    // Checkpoints: a log row at 1, 2, 4, … spp when asked for one, the predicted error after
+    // every pass when --target-error may stop the render, and a tev update.
     let mut rows: Vec<pathlight::film::ConvergenceRow> = Vec::new();
     let logging = reference.is_some() || args.log.is_some();
-    let stats = pathlight::render_progressive_with(backend.as_mut(), args.spp, &stop, |b, done, seconds| {
+    let start = std::time::Instant::now();
+    let mut last_tev = None::<std::time::Instant>;
+    let stats = session.render_to(args.spp, &stop, |b, done| {
+        let seconds = start.elapsed().as_secs_f64();
         bar.set_position(done as u64);
         let mut stop_now = args.time_limit.is_some_and(|t| seconds >= t);
         let log_here = logging && (done.is_power_of_two() || done == args.spp);
@@ -531,6 +468,16 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
                 rows.push(row);
             }
         }
+        // tev: at most a few updates a second (each sends the whole image).
+        if let Some(t) = tev.as_mut() {
+            if last_tev.is_none_or(|l: std::time::Instant| l.elapsed().as_secs_f64() >= 0.25) || done == args.spp {
+                if let Err(e) = t.update(&b.film()?) {
+                    bar.suspend(|| eprintln!("warning: --tev: {e}; no more updates"));
+                    tev = None;
+                }
+                last_tev = Some(std::time::Instant::now());
+            }
+        }
         Ok(stop_now)
     })?;
     bar.finish_and_clear();
@@ -544,31 +491,21 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
             std::fs::write(tmp, &text).map_err(|e| Error::io(log, e))
         })?;
     }
-    let film = backend.film()?;
-    let rejected = film.total_rejected();
-    let meta = RenderMetadata {
-        scene: args.scene.display().to_string(),
-        backend: backend.name(),
-        spp: stats.spp,
-        seed: args.seed,
-        max_depth: args.max_depth,
-        render_seconds: stats.seconds,
-        rejected_samples: rejected,
-    };
+    let film = session.film()?;
+    if let Some(t) = tev.as_mut() {
+        // The final image, then the connection closes (the image stays open in tev).
+        if let Err(e) = t.update(&film) {
+            eprintln!("warning: --tev: {e}");
+        }
+    }
     let tonemap = match args.tonemap {
         TonemapChoice::Clamp => Tonemap::Clamp,
         TonemapChoice::Aces => Tonemap::Aces,
     };
-    for o in &args.output {
-        let is_exr = o.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        if is_exr {
-            write_exr(&film, &meta, o)?;
-        } else {
-            write_png(&film, o, tonemap, args.exposure)?;
-        }
-    }
+    session.write(&args.output, tonemap, args.exposure)?;
+    let rejected = film.total_rejected();
     let samples = film.total_samples() + rejected;
-    let rays = backend.rays_traced()?;
+    let rays = session.rays_traced()?;
     eprintln!(
         "{}{} spp at {width}×{height} in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s, {rejected} rejected sample(s), backend {}",
         if stats.interrupted { "interrupted after " } else { "" },
@@ -576,7 +513,41 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
         stats.seconds,
         samples as f64 / stats.seconds.max(1e-9) / 1e6,
         rays as f64 / stats.seconds.max(1e-9) / 1e6,
-        meta.backend
+        session.backend_name()
     );
     Ok(())
+}
+
+/// The image name tev shows: the scene's file name.
+fn tev_image_name(scene: &Path) -> String {
+    format!("pathlight: {}", scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
+}
+
+/// The session `render` asks for.
+fn session_options(args: &RenderArgs) -> SessionOptions {
+    SessionOptions {
+        scene: args.scene.clone(),
+        load: LoadOptions { allow_any_path: args.allow_any_path },
+        environment: match (&args.env, args.background) {
+            (Some(path), _) => EnvironmentChoice::Map {
+                path: path.clone(),
+                intensity: args.env_intensity,
+                rotation_degrees: args.env_rotation,
+            },
+            (None, Some(rgb)) => EnvironmentChoice::Constant(rgb),
+            (None, None) => EnvironmentChoice::None,
+        },
+        camera: args.camera,
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        seed: args.seed,
+        max_depth: args.max_depth,
+        backend: match args.backend {
+            BackendChoice::Auto => pathlight::session::BackendChoice::Auto,
+            BackendChoice::Gpu => pathlight::session::BackendChoice::Gpu,
+            BackendChoice::Cpu => pathlight::session::BackendChoice::Cpu,
+        },
+        device: args.device.clone(),
+    }
 }

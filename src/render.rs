@@ -62,7 +62,20 @@ pub trait Backend {
     fn film(&mut self) -> Result<Film>;
     /// Rays traced so far (camera and bounce rays, and shadow rays), for throughput.
     fn rays_traced(&mut self) -> Result<u64>;
+    /// Adds sample `sample_index` to the pixels of image rows `rows` only: bounded work, for
+    /// a viewer that must stay responsive (a pixel's samples stay in order, so rendering
+    /// every row for each index in turn gives the same film as [`Backend::render`]).
+    fn render_rows(&mut self, sample_index: u32, rows: std::ops::Range<u32>) -> Result<()>;
+    /// Forgets every sample: the film and the ray counts return to zero.
+    fn reset(&mut self) -> Result<()>;
+    /// Renders from now on through `camera` (callers [`Backend::reset`] as well).
+    fn set_camera(&mut self, camera: &crate::scene::layout::Camera) -> Result<()>;
 }
+
+/// Rays one sample can trace at most: a closest-hit and a shadow ray per bounce up to
+/// `cpu::MAX_BOUNCES_GUARD`, and the camera ray. It bounds how many samples a per-pixel
+/// `u32` ray counter can take before it must be folded into a 64-bit total.
+pub const MAX_RAYS_PER_SAMPLE: u64 = 2 * crate::cpu::MAX_BOUNCES_GUARD as u64 + 1;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderStats {
@@ -99,10 +112,22 @@ pub fn render_progressive_with(
     backend: &mut dyn Backend,
     spp: u32,
     stop: &AtomicBool,
+    checkpoint: impl FnMut(&mut dyn Backend, u32, f64) -> Result<bool>,
+) -> Result<RenderStats> {
+    render_progressive_from(backend, 0, spp, stop, checkpoint)
+}
+
+/// [`render_progressive_with`] for a film that already holds `start` samples per pixel
+/// (a session resumed after an interruption): renders samples `start .. spp`.
+pub fn render_progressive_from(
+    backend: &mut dyn Backend,
+    start_spp: u32,
+    spp: u32,
+    stop: &AtomicBool,
     mut checkpoint: impl FnMut(&mut dyn Backend, u32, f64) -> Result<bool>,
 ) -> Result<RenderStats> {
     let start = Instant::now();
-    let mut done = 0u32;
+    let mut done = start_spp;
     let mut pass = 1u32;
     while done < spp {
         if stop.load(Ordering::Relaxed) {

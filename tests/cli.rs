@@ -207,3 +207,31 @@ fn a_closed_stdout_ends_quietly() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(matches!(out.status.code(), Some(141) | Some(0)), "status {:?}: {stderr}", out.status);
 }
+
+#[test]
+fn unwritable_outputs_fail_before_rendering() {
+    let dir = temp_dir("unwritable");
+    let scene = common::scene("cornell-box.gltf");
+    // A huge render that would take minutes: the check must come first, so this is quick.
+    let run = |output: &std::path::Path| {
+        let start = std::time::Instant::now();
+        let out = pathlight()
+            .args(["render", scene.to_str().unwrap(), "--backend", "cpu", "--spp", "100000"])
+            .arg("-o")
+            .arg(output)
+            .output()
+            .unwrap();
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned(), start.elapsed())
+    };
+    let missing = dir.join("missing/folder/out.exr");
+    let (code, stderr, took) = run(&missing);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("missing/folder") && stderr.contains("does not exist"), "{stderr}");
+    assert!(took.as_secs() < 30, "failed only after {took:?}: it rendered first");
+    let folder = dir.join("a-folder.png");
+    std::fs::create_dir_all(&folder).unwrap();
+    let (code, stderr, _) = run(&folder);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("is a folder"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -175,7 +175,7 @@ pub fn radiance(
     mut ray: Ray,
     cone: RayCone,
     rng: &mut Rng,
-    rays: &mut u32,
+    rays: &mut u64,
 ) -> Vec3 {
     // Distance travelled along the path before the current ray: the cone keeps its spread.
     let mut travelled = 0.0f32;
@@ -188,7 +188,7 @@ pub fn radiance(
     // the radiance factors 1/η² that entering and leaving a solid cancel (pbrt-v4 §14.1.4).
     let mut eta_scale = 1.0f32;
     loop {
-        *rays = rays.wrapping_add(1);
+        *rays += 1;
         // Scenes with alpha-tested materials draw one number per traversal for stochastic
         // transparency; others draw none, keeping their random streams.
         let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
@@ -261,7 +261,7 @@ pub fn radiance(
                 let wi = si.frame.to_local(ls.wi);
                 let f = bsdf.eval(si.wo, wi);
                 let unoccluded = f.max_element() > 0.0 && {
-                    *rays = rays.wrapping_add(1);
+                    *rays += 1;
                     let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
                     !scene.intersect_any(&ls.shadow_ray, alpha_seed)
                 };

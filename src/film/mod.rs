@@ -106,6 +106,32 @@ pub fn write_atomically(
     result
 }
 
+/// Fails unless an image can be written to `path` the way [`write_atomically`] will: its
+/// folder exists and takes a new file, and `path` is not a folder. Called before rendering,
+/// so that a typo in `-o` costs nothing.
+pub fn check_writable(path: &std::path::Path) -> crate::Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    if !dir.is_dir() {
+        return Err(crate::Error::Settings(format!(
+            "{}: cannot write there: the folder {} does not exist",
+            path.display(),
+            dir.display()
+        )));
+    }
+    if path.is_dir() {
+        return Err(crate::Error::Settings(format!("{}: is a folder, not an image file", path.display())));
+    }
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let probe = dir.join(format!(".{name}.probe-{}", std::process::id()));
+    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => Err(crate::Error::Settings(format!("{}: cannot write there: {e}", path.display()))),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

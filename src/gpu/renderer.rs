@@ -35,6 +35,12 @@ pub struct GpuBackend {
     settings: RenderSettings,
     light_count: u32,
     camera: crate::scene::layout::Camera,
+    camera_buffer: wgpu::Buffer,
+    /// Rays counted before the per-pixel `u32` counters were last read and cleared, and the
+    /// samples per pixel added since: the counters are folded into this 64-bit total before
+    /// they could wrap (see [`crate::render::MAX_RAYS_PER_SAMPLE`]).
+    rays_folded: u64,
+    samples_since_fold: u64,
     /// Measured seconds per pixel-sample, steering submit sizes.
     seconds_per_sample: Option<f64>,
     /// Wall time of uploading the scene.
@@ -142,7 +148,7 @@ impl GpuBackend {
         let camera = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("camera"),
             contents: bytemuck::bytes_of(&scene.camera),
-            usage: wgpu::BufferUsages::STORAGE,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame params"),
@@ -195,6 +201,9 @@ impl GpuBackend {
             settings: settings.clone(),
             light_count: scene.lights.len() as u32,
             camera: scene.camera,
+            camera_buffer: camera.clone(),
+            rays_folded: 0,
+            samples_since_fold: 0,
             seconds_per_sample: None,
             upload_seconds: start.elapsed().as_secs_f64(),
             ctx,
@@ -312,6 +321,36 @@ impl GpuBackend {
     }
 }
 
+impl GpuBackend {
+    /// The film on the device (`FilmPixel` per pixel, row-major): a viewer's display pass
+    /// reads it in place.
+    pub fn film_buffer(&self) -> &wgpu::Buffer {
+        &self.film
+    }
+
+    /// Folds the per-pixel ray counters into the 64-bit total when `samples` more samples
+    /// per pixel could make one wrap.
+    fn fold_rays_before(&mut self, samples: u64) -> Result<()> {
+        let limit = u32::MAX as u64 / crate::render::MAX_RAYS_PER_SAMPLE;
+        if self.samples_since_fold + samples > limit {
+            self.fold_rays()?;
+        }
+        self.samples_since_fold += samples;
+        Ok(())
+    }
+
+    fn fold_rays(&mut self) -> Result<()> {
+        self.rays_folded += self.read_back::<u32>(&self.ray_counts)?.iter().map(|&c| c as u64).sum::<u64>();
+        let mut encoder =
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("clear") });
+        encoder.clear_buffer(&self.ray_counts, 0, None);
+        let index = self.ctx.queue.submit([encoder.finish()]);
+        self.wait(index)?;
+        self.samples_since_fold = 0;
+        Ok(())
+    }
+}
+
 impl Backend for GpuBackend {
     fn name(&self) -> String {
         format!("gpu ({})", self.ctx.name())
@@ -324,6 +363,7 @@ impl Backend for GpuBackend {
     /// depends only on (pixel, sample index, seed), so the image does not depend on how the
     /// work was split.
     fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
+        self.fold_rays_before(samples as u64)?;
         let (w, h) = (self.settings.width, self.settings.height);
         // (submission, pixel-samples of work, time submitted)
         let mut in_flight: std::collections::VecDeque<(wgpu::SubmissionIndex, f64, Instant)> =
@@ -385,6 +425,38 @@ impl Backend for GpuBackend {
     }
 
     fn rays_traced(&mut self) -> Result<u64> {
-        Ok(self.read_back::<u32>(&self.ray_counts)?.iter().map(|&c| c as u64).sum())
+        self.fold_rays()?;
+        Ok(self.rays_folded)
+    }
+
+    fn render_rows(&mut self, sample_index: u32, rows: std::ops::Range<u32>) -> Result<()> {
+        let rows = rows.start.min(self.settings.height)..rows.end.min(self.settings.height);
+        if rows.is_empty() {
+            return Ok(());
+        }
+        // One sample per pixel of the band; counted once per full pass for the fold bound.
+        if rows.start == 0 {
+            self.fold_rays_before(1)?;
+        }
+        let params = self.frame_params(sample_index, 1, rows.start, rows.end - rows.start);
+        self.dispatch(&self.kernel.render, params)
+    }
+
+    fn reset(&mut self) -> Result<()> {
+        let mut encoder =
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("reset") });
+        encoder.clear_buffer(&self.film, 0, None);
+        encoder.clear_buffer(&self.ray_counts, 0, None);
+        let index = self.ctx.queue.submit([encoder.finish()]);
+        self.wait(index)?;
+        self.rays_folded = 0;
+        self.samples_since_fold = 0;
+        Ok(())
+    }
+
+    fn set_camera(&mut self, camera: &crate::scene::layout::Camera) -> Result<()> {
+        self.camera = *camera;
+        self.ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(camera));
+        Ok(())
     }
 }

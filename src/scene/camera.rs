@@ -85,6 +85,8 @@ impl CameraDesc {
             half_height: half_height as f32,
             forward: self.forward.as_vec3().to_array(),
             half_width: half_width as f32,
+            position: [0.0; 3],
+            _pad0: 0,
         }
     }
 }
@@ -138,10 +140,11 @@ pub fn generate_camera_ray(
     let right = Vec3::from(camera.right) * (ndc_x * camera.half_width);
     let up = Vec3::from(camera.up) * (ndc_y * camera.half_height);
     let forward = Vec3::from(camera.forward);
+    let position = Vec3::from(camera.position);
     let (origin, direction) = if camera.projection == PROJECTION_ORTHOGRAPHIC {
-        (right + up, forward)
+        (position + right + up, forward)
     } else {
-        (Vec3::ZERO, (forward + right + up).normalize())
+        (position, (forward + right + up).normalize())
     };
     crate::geometry::Ray { origin, direction, t_max: f32::MAX }
 }

@@ -329,6 +329,10 @@ gpu_struct! {
         pub forward: [f32; 3],
         /// Perspective: tan(xfov / 2). Orthographic: half the view width.
         pub half_width: f32,
+        /// The eye (camera-relative world): zero for the camera the scene was flattened
+        /// around; a viewer that moves the camera sets it instead of rebuilding the scene.
+        pub position: [f32; 3],
+        pub _pad0: u32,
     }
 }
 

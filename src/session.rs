@@ -1,0 +1,400 @@
+//! A render session: load a scene, choose a backend, add progressive passes to its film,
+//! report progress and error, stop early, move the camera, write the outputs. The command
+//! line's `render` and `view` and the tests all go through it; a Rust program embeds
+//! pathlight the same way:
+//!
+//! ```no_run
+//! use pathlight::session::{Session, SessionOptions};
+//! let mut session = Session::open(&SessionOptions::new("scenes/cornell-box.gltf"))?;
+//! session.render_to(16, &std::sync::atomic::AtomicBool::new(false), |_, _| Ok(false))?;
+//! session.write(&["out.exr".into()], pathlight::film::Tonemap::Clamp, 0.0)?;
+//! # Ok::<(), pathlight::Error>(())
+//! ```
+//!
+//! A session keeps its samples: stopped (by the stop flag or a checkpoint) it can be
+//! resumed, and the resumed film equals an uninterrupted one, because every sample's random
+//! stream depends only on (pixel, sample index, seed).
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+use crate::cpu::CpuBackend;
+use crate::error::{Error, Result};
+use crate::film::{write_exr, write_png, Film, RenderMetadata, Tonemap};
+use crate::gpu::{enumerate_adapters, GpuBackend, GpuContext};
+use crate::light::EnvironmentDesc;
+use crate::render::{render_progressive_from, Backend, RenderSettings, RenderStats};
+use crate::scene::layout::Camera;
+use crate::scene::{FlatScene, LoadOptions, Scene, ViewSettings};
+
+/// Which backend renders.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BackendChoice {
+    /// A hardware GPU if there is one; else the CPU backend (a software Vulkan rasteriser
+    /// such as lavapipe is slower than it on the same cores).
+    #[default]
+    Auto,
+    /// The WGSL megakernel on a Vulkan device, software rasterisers included.
+    Gpu,
+    /// The CPU reference renderer.
+    Cpu,
+}
+
+/// The light around the scene, beyond its own.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum EnvironmentChoice {
+    /// The scene's own lights (a default sky, with a warning, when it has none).
+    #[default]
+    None,
+    /// An equirectangular map, scaled and turned about +Y.
+    Map { path: PathBuf, intensity: f32, rotation_degrees: f32 },
+    /// A constant radiance.
+    Constant(glam::Vec3),
+}
+
+/// Everything a session needs to know before it starts.
+#[derive(Clone, Debug)]
+pub struct SessionOptions {
+    pub scene: PathBuf,
+    pub load: LoadOptions,
+    pub environment: EnvironmentChoice,
+    /// Camera index in the file (`None`: the first, or one framing the scene).
+    pub camera: Option<usize>,
+    /// Image size; a missing side follows the camera's aspect ratio (512 when both are).
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    /// Samples per pixel the session aims for (it also sizes the texture filter's cone).
+    pub spp: u32,
+    pub seed: u32,
+    pub max_depth: Option<u32>,
+    pub backend: BackendChoice,
+    /// GPU: the first adapter whose name contains this (asks for the GPU backend).
+    pub device: Option<String>,
+}
+
+impl SessionOptions {
+    /// The defaults of `pathlight render` for `scene`.
+    pub fn new(scene: impl Into<PathBuf>) -> SessionOptions {
+        SessionOptions {
+            scene: scene.into(),
+            load: LoadOptions::default(),
+            environment: EnvironmentChoice::None,
+            camera: None,
+            width: None,
+            height: None,
+            spp: 64,
+            seed: 0,
+            max_depth: None,
+            backend: BackendChoice::Auto,
+            device: None,
+        }
+    }
+}
+
+/// An open session: the scene, its backend and the film so far.
+pub struct Session {
+    pub source: PathBuf,
+    /// The scene as loaded (f64), for a viewer that frames it.
+    pub scene: Scene,
+    pub flat: Arc<FlatScene>,
+    pub settings: RenderSettings,
+    /// Warnings from loading and flattening the scene.
+    pub warnings: Vec<String>,
+    /// Why the backend was chosen, when `Auto` chose (for the user).
+    pub backend_note: Option<String>,
+    /// What opening the backend cost (the GPU kernel's build and the scene's upload).
+    pub backend_detail: Option<String>,
+    backend: Box<dyn Backend + Send>,
+    gpu: Option<Arc<GpuContext>>,
+    /// The GPU backend's film buffer (the trait object cannot be downcast to reach it).
+    gpu_film: Option<wgpu::Buffer>,
+    camera: Camera,
+    spp_done: u32,
+    seconds: f64,
+}
+
+/// A backend, its film on the device (GPU only), and what opening it cost (GPU only).
+type OpenedBackend = (Box<dyn Backend + Send>, Option<wgpu::Buffer>, Option<String>);
+
+/// A backend for `flat` at `settings`: the GPU one on `gpu` when given, else the CPU one.
+fn make_backend(
+    flat: &Arc<FlatScene>,
+    settings: &RenderSettings,
+    gpu: Option<&Arc<GpuContext>>,
+) -> Result<OpenedBackend> {
+    Ok(match gpu {
+        Some(ctx) => {
+            let backend = GpuBackend::new(ctx.clone(), flat, settings)?;
+            let film = backend.film_buffer().clone();
+            let detail = format!(
+                "kernel specialised to [{}] built in {:.2} s, scene uploaded in {:.3} s",
+                flat.features.describe(),
+                backend.kernel_build_seconds(),
+                backend.upload_seconds
+            );
+            (Box::new(backend), Some(film), Some(detail))
+        }
+        None => (Box::new(CpuBackend::shared(flat.clone(), settings)), None, None),
+    })
+}
+
+/// Image size from the options and the camera's aspect ratio.
+fn image_size(width: Option<u32>, height: Option<u32>, aspect: Option<f64>) -> (u32, u32) {
+    let aspect = aspect.unwrap_or(1.0);
+    match (width, height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, ((w as f64 / aspect).round() as u32).max(1)),
+        (None, Some(h)) => (((h as f64 * aspect).round() as u32).max(1), h),
+        (None, None) => (512, 512),
+    }
+}
+
+impl Session {
+    /// Loads the scene and opens the backend the options ask for.
+    pub fn open(options: &SessionOptions) -> Result<Session> {
+        Self::open_with(options, None)
+    }
+
+    /// [`Session::open`] on a GPU context the caller already holds (a viewer whose window
+    /// shares the device); `gpu` is used when the backend is the GPU one.
+    pub fn open_with(options: &SessionOptions, gpu: Option<Arc<GpuContext>>) -> Result<Session> {
+        let (mut scene, mut warnings) = crate::scene::load_with(&options.scene, &options.load)?;
+        match &options.environment {
+            EnvironmentChoice::None => {}
+            EnvironmentChoice::Map { path, intensity, rotation_degrees } => {
+                if !intensity.is_finite() || *intensity < 0.0 || !rotation_degrees.is_finite() {
+                    return Err(Error::Settings(
+                        "--env-intensity must be ≥ 0 and --env-rotation finite".into(),
+                    ));
+                }
+                let mut env = EnvironmentDesc::load(path)?;
+                env.intensity = *intensity;
+                env.rotation_degrees = *rotation_degrees;
+                scene.environment = Some(env);
+            }
+            EnvironmentChoice::Constant(rgb) => scene.environment = Some(EnvironmentDesc::constant(*rgb)),
+        }
+        let camera_aspect = match options.camera {
+            Some(i) => scene.cameras.get(i).and_then(|c| c.aspect_ratio()),
+            None => scene.cameras.first().and_then(|c| c.aspect_ratio()),
+        };
+        let (width, height) = image_size(options.width, options.height, camera_aspect);
+        let settings = RenderSettings {
+            width,
+            height,
+            spp: options.spp,
+            seed: options.seed,
+            max_depth: options.max_depth,
+            ..RenderSettings::default()
+        };
+        settings.validate()?;
+        let view = ViewSettings { camera: options.camera, aspect: width as f64 / height as f64 };
+        let flat = Arc::new(FlatScene::build(&scene, &view)?);
+        warnings.extend(flat.warnings());
+
+        // --device names an adapter, so it asks for the GPU backend.
+        let mut backend_note = None;
+        let choice = match (options.backend, &options.device) {
+            (BackendChoice::Auto, Some(_)) => BackendChoice::Gpu,
+            (BackendChoice::Auto, None) => match &gpu {
+                Some(ctx) if ctx.info.device_type != wgpu::DeviceType::Cpu => BackendChoice::Gpu,
+                _ => {
+                    let adapters = enumerate_adapters();
+                    if crate::gpu::hardware_adapter(&adapters).is_some() {
+                        BackendChoice::Gpu
+                    } else {
+                        let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+                        backend_note = Some(if names.is_empty() {
+                            "backend auto: no Vulkan adapter found; rendering on the CPU backend".to_string()
+                        } else {
+                            format!(
+                                "backend auto: the only Vulkan adapter ({}) is a software rasteriser, slower here than the CPU backend; rendering on the CPU backend (--backend gpu forces it)",
+                                names.join(", ")
+                            )
+                        });
+                        BackendChoice::Cpu
+                    }
+                }
+            },
+            (other, _) => other,
+        };
+        let gpu = match choice {
+            BackendChoice::Gpu => Some(match gpu {
+                Some(ctx) => ctx,
+                None => Arc::new(GpuContext::new(options.device.as_deref())?),
+            }),
+            _ => None,
+        };
+        let (backend, gpu_film, backend_detail) = make_backend(&flat, &settings, gpu.as_ref())?;
+        Ok(Session {
+            backend_detail,
+            source: options.scene.clone(),
+            scene,
+            camera: flat.camera,
+            flat,
+            settings,
+            warnings,
+            backend_note,
+            backend,
+            gpu,
+            gpu_film,
+            spp_done: 0,
+            seconds: 0.0,
+        })
+    }
+
+    /// A one-line summary of the scene (triangles, lights, BVH, kernel features).
+    pub fn describe(&self) -> String {
+        let f = &self.flat;
+        format!(
+            "{}: {} triangles, {} lights, BVH {} nodes built in {:.3} s (SAH cost {:.2}), features: {}",
+            self.source.display(),
+            f.triangles.len(),
+            f.lights.len(),
+            f.bvh_stats.nodes,
+            f.bvh_stats.build_seconds,
+            f.bvh_stats.sah_cost,
+            f.features.describe()
+        )
+    }
+
+    /// The backend's name, as outputs record it.
+    pub fn backend_name(&self) -> String {
+        self.backend.name()
+    }
+
+    /// The GPU backend's device, when the session renders on one.
+    pub fn gpu_context(&self) -> Option<&Arc<GpuContext>> {
+        self.gpu.as_ref()
+    }
+
+    /// The film on the device when the backend is the GPU one (for a display pass).
+    pub fn gpu_film_buffer(&self) -> Option<&wgpu::Buffer> {
+        self.gpu_film.as_ref()
+    }
+
+    /// The camera rendering now.
+    pub fn camera(&self) -> Camera {
+        self.camera
+    }
+
+    /// Renders at a new image size from now on (a resized window): the camera keeps its
+    /// vertical field of view and follows the new aspect ratio; the film restarts.
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
+        let settings = RenderSettings { width, height, ..self.settings.clone() };
+        settings.validate()?;
+        let (backend, gpu_film, _) = make_backend(&self.flat, &settings, self.gpu.as_ref())?;
+        self.backend = backend;
+        self.gpu_film = gpu_film;
+        self.settings = settings;
+        let mut camera = self.camera;
+        camera.half_width = camera.half_height * width as f32 / height as f32;
+        self.set_camera(&camera)
+    }
+
+    /// Samples per pixel completed (every pixel).
+    pub fn spp(&self) -> u32 {
+        self.spp_done
+    }
+
+    /// Seconds spent rendering so far.
+    pub fn seconds(&self) -> f64 {
+        self.seconds
+    }
+
+    /// Renders progressive passes until `spp` samples per pixel, `stop` is set, or
+    /// `checkpoint(film_source, done, seconds)` returns true; resumes where the film is.
+    pub fn render_to(
+        &mut self,
+        spp: u32,
+        stop: &AtomicBool,
+        mut checkpoint: impl FnMut(&mut dyn Backend, u32) -> Result<bool>,
+    ) -> Result<RenderStats> {
+        let before = self.seconds;
+        let stats =
+            render_progressive_from(self.backend.as_mut(), self.spp_done, spp, stop, |b, done, _| {
+                checkpoint(b, done)
+            })?;
+        self.spp_done = stats.spp;
+        self.seconds = before + stats.seconds;
+        Ok(RenderStats { seconds: self.seconds, ..stats })
+    }
+
+    /// Adds the next sample to rows `rows` (bounded work for a viewer); when the band ends
+    /// at the last row the pass is complete and [`Session::spp`] counts it.
+    pub fn render_rows(&mut self, rows: std::ops::Range<u32>) -> Result<()> {
+        let t = std::time::Instant::now();
+        let end = rows.end.min(self.settings.height);
+        self.backend.render_rows(self.spp_done, rows)?;
+        if end == self.settings.height {
+            self.spp_done += 1;
+        }
+        self.seconds += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The film so far.
+    pub fn film(&mut self) -> Result<Film> {
+        self.backend.film()
+    }
+
+    /// Rays traced so far.
+    pub fn rays_traced(&mut self) -> Result<u64> {
+        self.backend.rays_traced()
+    }
+
+    /// Forgets every sample (the camera or the scene changed).
+    pub fn restart(&mut self) -> Result<()> {
+        self.backend.reset()?;
+        self.spp_done = 0;
+        self.seconds = 0.0;
+        Ok(())
+    }
+
+    /// Moves the camera and restarts.
+    pub fn set_camera(&mut self, camera: &Camera) -> Result<()> {
+        self.backend.set_camera(camera)?;
+        self.camera = *camera;
+        self.restart()
+    }
+
+    /// What an EXR records about this render.
+    pub fn metadata(&mut self) -> Result<RenderMetadata> {
+        let rejected = self.backend.film()?.total_rejected();
+        Ok(RenderMetadata {
+            scene: self.source.display().to_string(),
+            backend: self.backend.name(),
+            spp: self.spp_done,
+            seed: self.settings.seed,
+            max_depth: self.settings.max_depth,
+            render_seconds: self.seconds,
+            rejected_samples: rejected,
+        })
+    }
+
+    /// Writes the film to each of `outputs` (.exr: linear with variance; .png: tone-mapped).
+    pub fn write(&mut self, outputs: &[PathBuf], tonemap: Tonemap, exposure: f32) -> Result<()> {
+        let film = self.backend.film()?;
+        let meta = self.metadata()?;
+        for o in outputs {
+            write_output(&film, &meta, o, tonemap, exposure)?;
+        }
+        Ok(())
+    }
+}
+
+/// Writes `film` to `path` by its extension.
+pub fn write_output(
+    film: &Film,
+    meta: &RenderMetadata,
+    path: &Path,
+    tonemap: Tonemap,
+    exposure: f32,
+) -> Result<()> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        write_exr(film, meta, path)
+    } else {
+        write_png(film, path, tonemap, exposure)
+    }
+}

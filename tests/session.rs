@@ -1,0 +1,119 @@
+//! The session API (issue 10): an interrupted session keeps its samples and resumes to the
+//! film an uninterrupted one makes; two sessions in one process do not interfere; bounded
+//! row-band rendering (the viewer's) adds up to the same film as whole passes.
+
+mod common;
+
+use std::sync::atomic::AtomicBool;
+
+use pathlight::film::Film;
+use pathlight::session::{BackendChoice, Session, SessionOptions};
+
+fn options(scene: &str, backend: BackendChoice) -> SessionOptions {
+    SessionOptions {
+        width: Some(20),
+        height: Some(14),
+        spp: 16,
+        seed: 9,
+        backend,
+        ..SessionOptions::new(common::scene(scene))
+    }
+}
+
+fn open(scene: &str, backend: BackendChoice) -> Session {
+    let gpu = match backend {
+        BackendChoice::Gpu => Some(common::gpu().expect("checked by the caller")),
+        _ => None,
+    };
+    Session::open_with(&options(scene, backend), gpu).unwrap()
+}
+
+fn never() -> AtomicBool {
+    AtomicBool::new(false)
+}
+
+/// Every pixel's statistics, bit for bit: sessions are deterministic per sample.
+fn assert_same(a: &Film, b: &Film, what: &str) {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        assert_eq!(p.count, q.count, "{what}: pixel {i} sample count");
+        for c in 0..3 {
+            assert_eq!(p.mean[c].to_bits(), q.mean[c].to_bits(), "{what}: pixel {i} mean");
+            assert_eq!(p.m2[c].to_bits(), q.m2[c].to_bits(), "{what}: pixel {i} M2");
+        }
+    }
+}
+
+fn backends() -> Vec<BackendChoice> {
+    let mut b = vec![BackendChoice::Cpu];
+    if common::gpu().is_some() {
+        b.push(BackendChoice::Gpu);
+    }
+    b
+}
+
+#[test]
+fn an_interrupted_session_keeps_its_samples_and_resumes() {
+    for backend in backends() {
+        let mut straight = open("cornell-box.gltf", backend);
+        straight.render_to(16, &never(), |_, _| Ok(false)).unwrap();
+
+        let mut interrupted = open("cornell-box.gltf", backend);
+        // Stopped by its checkpoint once it has 4 samples or more.
+        let stats = interrupted.render_to(16, &never(), |_, done| Ok(done >= 4)).unwrap();
+        assert!(stats.spp >= 4 && stats.spp < 16, "{backend:?}: stopped at {}", stats.spp);
+        assert_eq!(interrupted.spp(), stats.spp);
+        let kept = interrupted.film().unwrap();
+        assert!(kept.pixels.iter().all(|p| p.count == stats.spp), "{backend:?}: the samples are kept");
+        // A stop flag set before the next pass leaves the film as it is.
+        let stop = AtomicBool::new(true);
+        let stats = interrupted.render_to(16, &stop, |_, _| Ok(false)).unwrap();
+        assert!(stats.interrupted);
+        assert_same(&interrupted.film().unwrap(), &kept, "after a stopped call");
+        // Resumed, it ends where the uninterrupted session did.
+        interrupted.render_to(16, &never(), |_, _| Ok(false)).unwrap();
+        assert_same(&interrupted.film().unwrap(), &straight.film().unwrap(), &format!("{backend:?} resumed"));
+    }
+}
+
+#[test]
+fn two_sessions_in_one_process_do_not_interfere() {
+    for backend in backends() {
+        let solo = |scene: &str| {
+            let mut s = open(scene, backend);
+            s.render_to(8, &never(), |_, _| Ok(false)).unwrap();
+            s.film().unwrap()
+        };
+        let (solo_a, solo_b) = (solo("cornell-box.gltf"), solo("glossy-metal.gltf"));
+        // Both open at once (on the GPU, on one shared device), rendered in turns.
+        let mut a = open("cornell-box.gltf", backend);
+        let mut b = open("glossy-metal.gltf", backend);
+        for spp in [2, 4, 8] {
+            a.render_to(spp, &never(), |_, _| Ok(false)).unwrap();
+            b.render_to(spp, &never(), |_, _| Ok(false)).unwrap();
+        }
+        assert_same(&a.film().unwrap(), &solo_a, &format!("{backend:?} cornell-box"));
+        assert_same(&b.film().unwrap(), &solo_b, &format!("{backend:?} glossy-metal"));
+    }
+}
+
+#[test]
+fn row_bands_add_up_to_whole_passes() {
+    for backend in backends() {
+        let mut whole = open("cornell-box.gltf", backend);
+        whole.render_to(3, &never(), |_, _| Ok(false)).unwrap();
+        let mut banded = open("cornell-box.gltf", backend);
+        for _ in 0..3 {
+            // Uneven bands, the last one past the image's end.
+            for rows in [0..5, 5..6, 6..20] {
+                banded.render_rows(rows).unwrap();
+            }
+        }
+        assert_eq!(banded.spp(), 3);
+        assert_same(&banded.film().unwrap(), &whole.film().unwrap(), &format!("{backend:?} bands"));
+        // Restarting forgets the samples.
+        banded.restart().unwrap();
+        assert_eq!(banded.spp(), 0);
+        assert!(banded.film().unwrap().pixels.iter().all(|p| p.count == 0));
+    }
+}
