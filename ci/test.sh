@@ -12,6 +12,8 @@ if ! ldconfig -p 2>/dev/null | grep -q 'libvulkan.so.1'; then need_apt+=(libvulk
 if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1; then need_apt+=(mesa-vulkan-drivers); fi
 # nv-flip (the FLIP metric of `pathlight compare`) compiles its C++ core with the cc crate.
 if ! command -v c++ >/dev/null; then need_apt+=(g++); fi
+# The viewer test opens a window on a virtual X server.
+if ! command -v xvfb-run >/dev/null; then need_apt+=(xvfb); fi
 if [ ${#need_apt[@]} -gt 0 ]; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
         echo "ci/test.sh: installing ${need_apt[*]}"

@@ -152,6 +152,17 @@ struct FirstHit {
     triangle: u32,
 }
 
+struct DisplayParams {
+    film_width: u32,
+    film_height: u32,
+    target_width: u32,
+    target_height: u32,
+    exposure_scale: f32,
+    tonemap: u32,
+    encode_srgb: u32,
+    _pad0: u32,
+}
+
 const INVALID_INDEX: u32 = 0xffffffffu;
 const TRIANGLE_HAS_NORMALS: u32 = 1u;
 const TRIANGLE_HAS_TANGENTS: u32 = 2u;
@@ -170,3 +181,6 @@ const LIGHT_DIRECTIONAL: u32 = 3u;
 const LIGHT_ENVIRONMENT: u32 = 4u;
 const PROJECTION_PERSPECTIVE: u32 = 0u;
 const PROJECTION_ORTHOGRAPHIC: u32 = 1u;
+const DISPLAY_CLAMP: u32 = 0u;
+const DISPLAY_ACES: u32 = 1u;
+const DISPLAY_RELATIVE_ERROR: u32 = 2u;

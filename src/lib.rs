@@ -25,6 +25,7 @@ pub mod scene;
 pub mod session;
 pub mod stats;
 pub mod tev;
+pub mod viewer;
 
 pub use error::{Error, Result};
 pub use render::{

@@ -46,6 +46,8 @@ struct Cli {
 enum Command {
     /// Render a glTF scene to EXR (linear, with per-pixel variance) and/or PNG.
     Render(RenderArgs),
+    /// Watch a scene converge in a window (drag to orbit, wheel to zoom, S saves, Esc quits).
+    View(ViewArgs),
     /// List the Vulkan adapters with their driver, type and the limits that matter.
     Info,
     /// Measure scene preparation and render throughput; prints markdown tables.
@@ -137,15 +139,9 @@ enum TonemapChoice {
 }
 
 #[derive(clap::Args)]
-struct RenderArgs {
+struct SceneArgs {
     /// The scene (.gltf or .glb).
     scene: PathBuf,
-    /// Output image(s): .exr (linear radiance + variance) or .png (sRGB). Repeat for several.
-    #[arg(short, long = "output", required = true)]
-    output: Vec<PathBuf>,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 64)]
-    spp: u32,
     /// Image width (default 512; derived from the camera's aspect ratio if only --height is given).
     #[arg(long)]
     width: Option<u32>,
@@ -166,12 +162,6 @@ struct RenderArgs {
     /// Camera index in the file (default: the first camera, or one framing the scene).
     #[arg(long)]
     camera: Option<usize>,
-    /// PNG exposure in stops.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    exposure: f32,
-    /// PNG tone curve.
-    #[arg(long, value_enum, default_value_t = TonemapChoice::Clamp)]
-    tonemap: TonemapChoice,
     /// Let the scene's external files (buffers, images) be anywhere, not only inside its
     /// folder. Only for scenes you trust: see "Untrusted input" in the README.
     #[arg(long)]
@@ -188,6 +178,24 @@ struct RenderArgs {
     /// A constant environment of this linear radiance, e.g. 0.5,0.5,0.5.
     #[arg(long, value_parser = parse_rgb)]
     background: Option<glam::Vec3>,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    common: SceneArgs,
+    /// Output image(s): .exr (linear radiance + variance) or .png (sRGB). Repeat for several.
+    #[arg(short, long = "output", required = true)]
+    output: Vec<PathBuf>,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// PNG exposure in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// PNG tone curve.
+    #[arg(long, value_enum, default_value_t = TonemapChoice::Clamp)]
+    tonemap: TonemapChoice,
     /// A reference image (EXR, same size): log RMSE and relMSE against it at 1, 2, 4, … spp.
     #[arg(long)]
     reference: Option<PathBuf>,
@@ -205,6 +213,43 @@ struct RenderArgs {
     /// 127.0.0.1:14158); a tev that is not running is a warning, not a failed render.
     #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "HOST:PORT")]
     tev: Option<String>,
+}
+
+/// `view`: the scene options of `render`, and the window's own.
+#[derive(clap::Args)]
+struct ViewArgs {
+    #[command(flatten)]
+    common: SceneArgs,
+    /// Stop accumulating at this many samples per pixel (the window stays open).
+    #[arg(long, default_value_t = 4096)]
+    spp: u32,
+    /// Stop accumulating once the relMSE predicted from the image's own variance is at most this.
+    #[arg(long)]
+    target_error: Option<f64>,
+    /// Render this many frames of one whole pass each (N samples per pixel), write
+    /// --screenshot and the outputs, and exit: for tests and pictures.
+    #[arg(long)]
+    frames: Option<u32>,
+    /// With --frames: save what the window shows to this PNG.
+    #[arg(long, requires = "frames")]
+    screenshot: Option<PathBuf>,
+    /// Images written on exit (.exr with variance, .png); also what `S` writes.
+    #[arg(short, long = "output")]
+    output: Vec<PathBuf>,
+    /// Initial exposure in stops (`+`/`-` change it).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Initial tone map (`T` cycles them).
+    #[arg(long, value_enum, default_value_t = ViewTonemap::Clamp)]
+    tonemap: ViewTonemap,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ViewTonemap {
+    Clamp,
+    Aces,
+    /// False colour of each pixel's relative standard error (10⁻³ blue … 1 red).
+    RelativeError,
 }
 
 /// Parses `R,G,B` (three finite, non-negative numbers).
@@ -232,6 +277,7 @@ fn main() -> ExitCode {
     }
     let result = match cli.command {
         Command::Render(args) => run_render(args),
+        Command::View(args) => run_view(args),
         Command::Info => run_info(),
         Command::Bench(args) => run_bench(args),
         Command::Compare(_) => unreachable!("handled above"),
@@ -385,9 +431,9 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     {
         return Err(Error::Settings("--time-limit and --target-error must be positive and finite".into()));
     }
-    let mut session = Session::open(&session_options(&args))?;
+    let mut session = Session::open(&session_options(&args.common, args.spp))?;
     for w in &session.warnings {
-        eprintln!("warning: {}: {w}", args.scene.display());
+        eprintln!("warning: {}: {w}", args.common.scene.display());
     }
     eprintln!("{}", session.describe());
     for note in session.backend_note.iter().chain(&session.backend_detail) {
@@ -411,7 +457,7 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     };
     let mut tev = args.tev.as_ref().map(|address| {
         let address = if address.is_empty() { pathlight::tev::DEFAULT_ADDRESS } else { address.as_str() };
-        pathlight::tev::TevStream::connect(address, &tev_image_name(&args.scene), width, height)
+        pathlight::tev::TevStream::connect(address, &tev_image_name(&args.common.scene), width, height)
     });
     if let Some(Err(e)) = &tev {
         eprintln!("warning: --tev: {e}; rendering without it");
@@ -523,8 +569,8 @@ fn tev_image_name(scene: &Path) -> String {
     format!("pathlight: {}", scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
 }
 
-/// The session `render` asks for.
-fn session_options(args: &RenderArgs) -> SessionOptions {
+/// The session `render` and `view` ask for.
+fn session_options(args: &SceneArgs, spp: u32) -> SessionOptions {
     SessionOptions {
         scene: args.scene.clone(),
         load: LoadOptions { allow_any_path: args.allow_any_path },
@@ -540,7 +586,7 @@ fn session_options(args: &RenderArgs) -> SessionOptions {
         camera: args.camera,
         width: args.width,
         height: args.height,
-        spp: args.spp,
+        spp,
         seed: args.seed,
         max_depth: args.max_depth,
         backend: match args.backend {
@@ -550,4 +596,29 @@ fn session_options(args: &RenderArgs) -> SessionOptions {
         },
         device: args.device.clone(),
     }
+}
+
+fn run_view(args: ViewArgs) -> Result<(), Error> {
+    if args.target_error.is_some_and(|e| !(e > 0.0 && e.is_finite())) {
+        return Err(Error::Settings("--target-error must be positive and finite".into()));
+    }
+    for o in &args.output {
+        check_output(o)?;
+    }
+    if args.frames == Some(0) {
+        return Err(Error::Settings("--frames must be at least 1".into()));
+    }
+    pathlight::viewer::run(pathlight::viewer::ViewOptions {
+        session: session_options(&args.common, args.spp),
+        target_error: args.target_error,
+        frames: args.frames,
+        screenshot: args.screenshot,
+        outputs: args.output,
+        exposure: args.exposure,
+        tonemap: match args.tonemap {
+            ViewTonemap::Clamp => pathlight::scene::layout::DISPLAY_CLAMP,
+            ViewTonemap::Aces => pathlight::scene::layout::DISPLAY_ACES,
+            ViewTonemap::RelativeError => pathlight::scene::layout::DISPLAY_RELATIVE_ERROR,
+        },
+    })
 }

@@ -114,7 +114,11 @@ impl GpuContext {
             }
         }
         adapters.sort_by_key(|a| type_rank(a.get_info().device_type));
-        let adapter = adapters.into_iter().next().expect("non-empty");
+        Self::from_adapter(adapters.into_iter().next().expect("non-empty"))
+    }
+
+    /// Opens `adapter` (a viewer picks one that can present to its window).
+    pub fn from_adapter(adapter: wgpu::Adapter) -> Result<GpuContext> {
         let info = adapter.get_info();
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {

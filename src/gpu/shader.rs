@@ -32,6 +32,11 @@ pub fn compose(count: usize) -> String {
     out
 }
 
+/// The viewer's display pass: the shared layout, then `shaders/display.wgsl`.
+pub fn display_source() -> String {
+    format!("{}{}", compose(1), include_str!("../../shaders/display.wgsl"))
+}
+
 /// The whole kernel.
 pub fn kernel_source() -> String {
     compose(SHADER_FILES.len())
@@ -143,6 +148,9 @@ mod tests {
             ("LIGHT_DIRECTIONAL", layout::LIGHT_DIRECTIONAL as f64),
             ("LIGHT_ENVIRONMENT", layout::LIGHT_ENVIRONMENT as f64),
             ("PROJECTION_PERSPECTIVE", layout::PROJECTION_PERSPECTIVE as f64),
+            ("DISPLAY_CLAMP", layout::DISPLAY_CLAMP as f64),
+            ("DISPLAY_ACES", layout::DISPLAY_ACES as f64),
+            ("DISPLAY_RELATIVE_ERROR", layout::DISPLAY_RELATIVE_ERROR as f64),
             ("PROJECTION_ORTHOGRAPHIC", layout::PROJECTION_ORTHOGRAPHIC as f64),
             ("TRAVERSAL_STACK_SIZE", crate::bvh::TRAVERSAL_STACK_SIZE as f64),
             ("MAX_BOUNCES_GUARD", crate::cpu::MAX_BOUNCES_GUARD as f64),

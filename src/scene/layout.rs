@@ -393,6 +393,32 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// What the viewer's display pass needs (`src/viewer/display.rs`), 32 bytes.
+    pub struct DisplayParams {
+        /// The film's size in pixels.
+        pub film_width: u32,
+        pub film_height: u32,
+        /// The render target's size in pixels (the film is stretched over it).
+        pub target_width: u32,
+        pub target_height: u32,
+        /// 2^exposure.
+        pub exposure_scale: f32,
+        /// One of the `DISPLAY_*` tone maps.
+        pub tonemap: u32,
+        /// 1: the shader applies the sRGB curve (the target format does not).
+        pub encode_srgb: u32,
+        pub _pad0: u32,
+    }
+}
+
+/// [`DisplayParams::tonemap`]: scale and clamp.
+pub const DISPLAY_CLAMP: u32 = 0;
+/// [`DisplayParams::tonemap`]: Narkowicz's ACES fit (as `film::Tonemap::Aces`).
+pub const DISPLAY_ACES: u32 = 1;
+/// [`DisplayParams::tonemap`]: false colour of each pixel's relative standard error.
+pub const DISPLAY_RELATIVE_ERROR: u32 = 2;
+
 /// One struct's layout: name, size in bytes, and `(field, offset)` pairs.
 pub type StructLayout = (&'static str, usize, Vec<(&'static str, usize)>);
 
@@ -416,6 +442,7 @@ pub fn all_layouts() -> Vec<StructLayout> {
         entry::<FrameParams>(),
         entry::<FilmPixel>(),
         entry::<FirstHit>(),
+        entry::<DisplayParams>(),
     ]
 }
 
