@@ -412,9 +412,41 @@ fn furnace(path: &Path, albedo: f64) {
     );
 }
 
+/// A closed cube (12 triangles on 8 shared vertices, with the averaged corner normals a
+/// modelling tool exports) lit only from outside by a point light and an emissive quad
+/// above it, the camera inside: no light can reach the camera, so every pixel is exactly 0.
+fn sealed_room(path: &Path) {
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white", [0.8, 0.8, 0.8]));
+    let v = |i: usize| [if i & 1 != 0 { 1.0f32 } else { -1.0 }, if i & 2 != 0 { 1.0 } else { -1.0 }, if i & 4 != 0 { 1.0 } else { -1.0 }];
+    let positions: Vec<[f32; 3]> = (0..8).map(v).collect();
+    let k = 1.0 / 3f32.sqrt();
+    let normals: Vec<[f32; 3]> = positions.iter().map(|p| [p[0] * k, p[1] * k, p[2] * k]).collect();
+    // Outward winding, two triangles per face.
+    let faces: [[u32; 4]; 6] =
+        [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let indices: Vec<u32> = faces.iter().flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]]).collect();
+    g.mesh("sealed cube", &Mesh { positions, normals, indices }, white);
+    let lamp = g.material(emitter("lamp", [50.0, 50.0, 50.0], 0.0));
+    let mut quad = Mesh::default();
+    quad.quad([[-0.8, 1.5, -0.8], [0.8, 1.5, -0.8], [0.8, 1.5, 0.8], [-0.8, 1.5, 0.8]], [0.0, 0.0, 0.0]);
+    g.mesh("lamp above the cube", &quad, lamp);
+    g.light(json!({"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 100.0}), [0.0, 2.5, 0.0], [0.0, 0.0, 0.0, 1.0]);
+    // Inside, looking up at a corner of the ceiling (where shading normals tilt most).
+    let pitch = 0.35f64;
+    let yaw = 0.6f64;
+    let (sp, cp) = (pitch / 2.0).sin_cos();
+    let (sy, cy) = (yaw / 2.0).sin_cos();
+    // q = yaw(Y) * pitch(X)
+    let q = [cy * sp, sy * cp, -sy * sp, cy * cp];
+    g.perspective_camera("inside", 70f64.to_radians(), [0.0, -0.2, 0.3], q);
+    g.write(path, "Sealed room: the camera inside a closed cube lit only from outside; every pixel is exactly 0");
+}
+
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::create_dir_all(dir.join("hard")).unwrap();
+    sealed_room(&dir.join("hard/sealed-room.gltf"));
 
     let mut g = Gltf::default();
     cornell(&mut g, true);

@@ -11,6 +11,7 @@ struct SurfaceInteraction {
     n_geometric: vec3<f32>,
     frame: Frame,
     wo: vec3<f32>,
+    wo_world: vec3<f32>,
     front_face: bool,
     material: u32,
     emitter: u32,
@@ -71,7 +72,7 @@ fn surface_interaction(ray: Ray, hit: ClosestHit, cone_width: f32) -> SurfaceInt
         }
         coat_normal = normalize(frame_to_local(f, facing_normal(n_coat, n_front, front_face, wo_world, ng_facing)));
     }
-    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), front_face, tri.material, tri.emitter, hit.t, uv, lod, coat_normal);
+    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), wo_world, front_face, tri.material, tri.emitter, hit.t, uv, lod, coat_normal);
 }
 
 // The normal map `texture` (or INVALID_INDEX: none) applied in `tf` (tangent, bitangent,
@@ -101,6 +102,14 @@ fn facing_normal(n: vec3<f32>, n_front: vec3<f32>, front_face: bool, wo_world: v
         return s_front;
     }
     return ng_facing;
+}
+
+// Twin of `sides_agree`: reflection by the shading frame must be reflection by the
+// geometric normal too (the CPU twin explains the light leak this closes).
+fn sides_agree(si: SurfaceInteraction, wi_world: vec3<f32>, wi_local: vec3<f32>) -> bool {
+    let wo_side = dot(si.wo_world, si.n_geometric);
+    let reflected_geometrically = dot(wi_world, si.n_geometric) * wo_side > 0.0;
+    return reflected_geometrically == (wi_local.z > 0.0);
 }
 
 // A NaN, to poison a sample whose throughput stopped being finite (the film rejects it).
@@ -167,7 +176,10 @@ fn radiance(camera_ray: Ray, cone: vec2<f32>) -> vec3<f32> {
             let ls = sample_light(si.p, si.p_error, si.n_geometric, u_select, u_light);
             if (ls.valid) {
                 let wi = frame_to_local(si.frame, ls.wi);
-                let f = gltf_bsdf_eval(bsdf, si.wo, wi);
+                var f = vec3<f32>(0.0);
+                if (sides_agree(si, ls.wi, wi)) {
+                    f = gltf_bsdf_eval(bsdf, si.wo, wi);
+                }
                 var unoccluded = false;
                 if (max_element(f) > 0.0) {
                     var shadow_seed = 0u;
@@ -194,6 +206,10 @@ fn radiance(camera_ray: Ray, cone: vec2<f32>) -> vec3<f32> {
         if (!bs.valid) {
             break;
         }
+        let wi_world = normalize(frame_from_local(si.frame, bs.wi));
+        if (!sides_agree(si, wi_world, bs.wi)) {
+            break;
+        }
         beta *= bs.weight;
         if (!is_finite_vec3(beta)) {
             return poison();
@@ -202,7 +218,6 @@ fn radiance(camera_ray: Ray, cone: vec2<f32>) -> vec3<f32> {
         prev_pdf = bs.pdf_solid_angle;
         eta_scale *= bs.eta_scale;
         depth += 1u;
-        let wi_world = normalize(frame_from_local(si.frame, bs.wi));
         ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
 
         if (depth >= frame.rr_min_depth) {

@@ -60,6 +60,8 @@ pub struct SurfaceInteraction {
     /// Outgoing direction (towards the ray origin) in the shading frame; `wo.z > 0` unless
     /// the hit is exactly edge-on.
     pub wo: Vec3,
+    /// The same direction in world space.
+    pub wo_world: Vec3,
     /// Did the ray arrive on the geometric front side?
     pub front_face: bool,
     pub material: u32,
@@ -156,6 +158,7 @@ pub fn surface_interaction(
         n_geometric,
         frame,
         wo: frame.to_local(wo_world),
+        wo_world,
         front_face,
         material: tri.material,
         emitter: tri.emitter,
@@ -164,6 +167,20 @@ pub fn surface_interaction(
         lod,
         coat_normal,
     }
+}
+
+/// Does direction `wi` (world `wi_world`, shading frame `wi_local`) leave the surface on the
+/// side its shading says? Reflection in the shading frame (`wi_local.z > 0`, as `wo.z > 0`)
+/// must also be reflection about the geometric normal, and transmission transmission.
+/// Where smooth normals tilt far from the faces (averaged corner normals of a box), a
+/// direction can be reflected for the BSDF yet pass through the geometric surface; its ray
+/// would be spawned on the far side and carry light through a closed wall (issue 11's sealed
+/// room). Such directions are dropped, as pbrt-v3's `BSDF::f` does by classifying
+/// reflection with the geometric normal (Veach 1997 §5.3 discusses these normals).
+fn sides_agree(si: &SurfaceInteraction, wi_world: Vec3, wi_local: Vec3) -> bool {
+    let wo_side = si.wo_world.dot(si.n_geometric);
+    let reflected_geometrically = wi_world.dot(si.n_geometric) * wo_side > 0.0;
+    reflected_geometrically == (wi_local.z > 0.0)
 }
 
 /// One path's radiance estimate along camera ray `ray` (unit direction) with ray cone
@@ -259,7 +276,7 @@ pub fn radiance(
                 sample_light(scene.light_arrays(), si.p, si.p_error, si.n_geometric, u_select, u_light)
             {
                 let wi = si.frame.to_local(ls.wi);
-                let f = bsdf.eval(si.wo, wi);
+                let f = if sides_agree(&si, ls.wi, wi) { bsdf.eval(si.wo, wi) } else { Vec3::ZERO };
                 let unoccluded = f.max_element() > 0.0 && {
                     *rays += 1;
                     let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
@@ -281,6 +298,10 @@ pub fn radiance(
         let u_lobe = rng.next_1d();
         let u_dir = rng.next_2d();
         let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { break };
+        let wi_world = si.frame.from_local(bs.wi).normalize();
+        if !sides_agree(&si, wi_world, bs.wi) {
+            break;
+        }
         beta *= bs.weight;
         if !beta.is_finite() {
             // Poison the sample so the film counts and rejects it. Checked here, before
@@ -291,7 +312,6 @@ pub fn radiance(
         prev_pdf = bs.pdf_solid_angle;
         eta_scale *= bs.eta_scale;
         depth += 1;
-        let wi_world = si.frame.from_local(bs.wi).normalize();
         ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
 
         // Russian roulette (unbiased: survivors are divided by the survival probability),
