@@ -22,6 +22,9 @@ struct Gltf {
     cameras: Vec<Value>,
     lights: Vec<Value>,
     extensions: BTreeSet<&'static str>,
+    /// When set, every node is placed under one root node with this transform (its
+    /// `translation`, `rotation`, `scale`), composed by the loader in f64.
+    root: Option<Value>,
 }
 
 fn bounds(points: &[[f32; 3]]) -> (Vec<f32>, Vec<f32>) {
@@ -123,8 +126,21 @@ impl Gltf {
         let mut doc = json!({
             "asset": {"version": "2.0", "generator": "pathlight examples/make_scenes.rs", "extras": {"description": description}},
             "scene": 0,
-            "scenes": [{"nodes": (0..self.nodes.len()).collect::<Vec<_>>()}],
-            "nodes": self.nodes,
+            "scenes": [{"nodes": match &self.root {
+                Some(_) => vec![self.nodes.len()],
+                None => (0..self.nodes.len()).collect::<Vec<_>>(),
+            }}],
+            "nodes": match &self.root {
+                Some(t) => {
+                    let mut root = t.clone();
+                    root["name"] = json!("root");
+                    root["children"] = json!((0..self.nodes.len()).collect::<Vec<_>>());
+                    let mut nodes = self.nodes.clone();
+                    nodes.push(root);
+                    nodes
+                }
+                None => self.nodes.clone(),
+            },
             "meshes": self.meshes,
             "materials": self.materials,
             "accessors": self.accessors,
@@ -418,7 +434,13 @@ fn furnace(path: &Path, albedo: f64) {
 fn sealed_room(path: &Path) {
     let mut g = Gltf::default();
     let white = g.material(lambert("white", [0.8, 0.8, 0.8]));
-    let v = |i: usize| [if i & 1 != 0 { 1.0f32 } else { -1.0 }, if i & 2 != 0 { 1.0 } else { -1.0 }, if i & 4 != 0 { 1.0 } else { -1.0 }];
+    let v = |i: usize| {
+        [
+            if i & 1 != 0 { 1.0f32 } else { -1.0 },
+            if i & 2 != 0 { 1.0 } else { -1.0 },
+            if i & 4 != 0 { 1.0 } else { -1.0 },
+        ]
+    };
     let positions: Vec<[f32; 3]> = (0..8).map(v).collect();
     let k = 1.0 / 3f32.sqrt();
     let normals: Vec<[f32; 3]> = positions.iter().map(|p| [p[0] * k, p[1] * k, p[2] * k]).collect();
@@ -431,7 +453,11 @@ fn sealed_room(path: &Path) {
     let mut quad = Mesh::default();
     quad.quad([[-0.8, 1.5, -0.8], [0.8, 1.5, -0.8], [0.8, 1.5, 0.8], [-0.8, 1.5, 0.8]], [0.0, 0.0, 0.0]);
     g.mesh("lamp above the cube", &quad, lamp);
-    g.light(json!({"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 100.0}), [0.0, 2.5, 0.0], [0.0, 0.0, 0.0, 1.0]);
+    g.light(
+        json!({"type": "point", "color": [1.0, 1.0, 1.0], "intensity": 100.0}),
+        [0.0, 2.5, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    );
     // Inside, looking up at a corner of the ceiling (where shading normals tilt most).
     let pitch = 0.35f64;
     let yaw = 0.6f64;
@@ -440,13 +466,37 @@ fn sealed_room(path: &Path) {
     // q = yaw(Y) * pitch(X)
     let q = [cy * sp, sy * cp, -sy * sp, cy * cp];
     g.perspective_camera("inside", 70f64.to_radians(), [0.0, -0.2, 0.3], q);
-    g.write(path, "Sealed room: the camera inside a closed cube lit only from outside; every pixel is exactly 0");
+    g.write(
+        path,
+        "Sealed room: the camera inside a closed cube lit only from outside; every pixel is exactly 0",
+    );
+}
+
+/// The Cornell box with its camera, under a root node that translates or scales it: an image
+/// equal to the untransformed box, whatever the transform (the loader composes in f64 and
+/// renders camera-relative).
+fn transformed_cornell(path: &Path, root: Value, description: &str) {
+    let mut g = Gltf { root: Some(root), ..Gltf::default() };
+    cornell(&mut g, true);
+    g.write(path, description);
 }
 
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     std::fs::create_dir_all(dir.join("hard")).unwrap();
     sealed_room(&dir.join("hard/sealed-room.gltf"));
+    for (name, root, what) in [
+        ("far-1e6", json!({"translation": [1e6, -1e6, 1e6]}), "translated by 1e6 along each axis"),
+        ("far-1e7", json!({"translation": [1e7, 1e7, -1e7]}), "translated by 1e7 along each axis"),
+        ("tiny-1e-5", json!({"scale": [1e-5, 1e-5, 1e-5]}), "scaled by 1e-5"),
+        ("huge-1e5", json!({"scale": [1e5, 1e5, 1e5]}), "scaled by 1e5"),
+    ] {
+        transformed_cornell(
+            &dir.join(format!("hard/cornell-{name}.gltf")),
+            root,
+            &format!("The Cornell box and its camera {what}: the image equals the untransformed box's"),
+        );
+    }
 
     let mut g = Gltf::default();
     cornell(&mut g, true);

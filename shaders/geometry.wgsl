@@ -233,6 +233,9 @@ fn intersect_triangle(ray: Ray, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> 
         return no_triangle_hit();
     }
 
+    // The shear's rounding is bounded in units of length, before z is scaled (the CPU twin
+    // explains why).
+    let max_z_length = max_element(abs(vec3<f32>(p0t.z, p1t.z, p2t.z)));
     p0t.z *= sz;
     p1t.z *= sz;
     p2t.z *= sz;
@@ -251,8 +254,8 @@ fn intersect_triangle(ray: Ray, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> 
     let delta_z = gamma(3) * max_zt;
     let max_xt = max_element(abs(vec3<f32>(p0t.x, p1t.x, p2t.x)));
     let max_yt = max_element(abs(vec3<f32>(p0t.y, p1t.y, p2t.y)));
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
+    let delta_x = gamma(5) * (max_xt + max_z_length);
+    let delta_y = gamma(5) * (max_yt + max_z_length);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = max_element(abs(vec3<f32>(e0, e1, e2)));
     let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * abs(inv_det);

@@ -50,3 +50,37 @@ fn a_sealed_room_lit_from_outside_is_exactly_black() {
         assert_eq!(film.total_rejected(), 0, "{backend}: non-finite samples");
     }
 }
+
+/// The multi-scale z-test `pathlight compare` runs (false-alarm rate 1%).
+fn statistically_equal(a: &Film, b: &Film) -> Result<(), String> {
+    use pathlight::film::{compare_images, CompareOptions, LinearImage};
+    let report =
+        compare_images(&LinearImage::from_film(a), &LinearImage::from_film(b), &CompareOptions::default())
+            .map_err(|e| e.to_string())?;
+    if report.same() {
+        Ok(())
+    } else {
+        Err(report.failures.join("; "))
+    }
+}
+
+#[test]
+fn far_tiny_and_huge_cornell_boxes_equal_the_plain_one() {
+    // The box and its camera moved 1e6 and 1e7 away, or scaled by 1e-5 and 1e5: the loader
+    // composes transforms in f64 and flattens the scene camera-relative, triangles are
+    // intersected watertight and rays spawned with error bounds, so each image must be the
+    // plain box's (independent seeds, z-test).
+    let size = 48;
+    let plain = render_both(&common::flat_scene(&common::scene("cornell-box.gltf"), size, size), size, 32, 3);
+    for name in
+        ["cornell-far-1e6.gltf", "cornell-far-1e7.gltf", "cornell-tiny-1e-5.gltf", "cornell-huge-1e5.gltf"]
+    {
+        let moved = render_both(&hard_scene(name, size), size, 32, 4);
+        for ((backend, a), (_, b)) in moved.iter().zip(&plain) {
+            assert_eq!(a.total_rejected(), 0, "{name} on {backend}: non-finite samples");
+            if let Err(e) = statistically_equal(a, b) {
+                panic!("{name} on {backend} differs from the plain Cornell box: {e}");
+            }
+        }
+    }
+}

@@ -127,12 +127,17 @@ fn a_resized_session_renders_what_a_fresh_one_at_that_size_does() {
     resized.resize(30, 12).unwrap();
     assert_eq!(resized.spp(), 0, "a resize restarts");
     resized.render_to(2, &never(), |_, _| Ok(false)).unwrap();
-    let fresh_options = SessionOptions { width: Some(30), height: Some(12), ..options("cornell-box.gltf", BackendChoice::Cpu) };
+    let fresh_options = SessionOptions {
+        width: Some(30),
+        height: Some(12),
+        ..options("cornell-box.gltf", BackendChoice::Cpu)
+    };
     let mut fresh = Session::open(&fresh_options).unwrap();
     fresh.render_to(2, &never(), |_, _| Ok(false)).unwrap();
     let (a, b) = (resized.film().unwrap(), fresh.film().unwrap());
     // The aspect ratio goes through f32 once more on the resized path: compare images, not bits.
     assert_eq!((a.width, a.height), (30, 12));
-    let worst = a.mean().iter().zip(b.mean()).map(|(x, y)| (*x - y).abs().max_element()).fold(0.0f32, f32::max);
+    let worst =
+        a.mean().iter().zip(b.mean()).map(|(x, y)| (*x - y).abs().max_element()).fold(0.0f32, f32::max);
     assert!(worst < 1e-3, "resized and fresh sessions differ by {worst}");
 }

@@ -82,6 +82,14 @@ pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<Tri
         return None;
     }
 
+    // The shear's rounding is in units of length, so it is bounded with the z extent before
+    // the scaling below makes z dimensionless. (pbrt-v4 takes the scaled extent, which is
+    // the same for unit directions; shadow rays here run from a point to a light with an
+    // unnormalised direction, and in a scene a millionth of a unit across the scaled extent
+    // is ~10⁶ times the length units: every hit then failed the t > δt test and shadow rays
+    // passed through walls — issue 11's tiny Cornell box.)
+    let max_z_length = Vec3::new(p0t.z, p1t.z, p2t.z).abs().max_element();
+
     // Scaled distance, tested against (0, t_max) without dividing.
     p0t.z *= sz;
     p1t.z *= sz;
@@ -104,8 +112,8 @@ pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<Tri
     let delta_z = gamma(3) * max_zt;
     let max_xt = Vec3::new(p0t.x, p1t.x, p2t.x).abs().max_element();
     let max_yt = Vec3::new(p0t.y, p1t.y, p2t.y).abs().max_element();
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
+    let delta_x = gamma(5) * (max_xt + max_z_length);
+    let delta_y = gamma(5) * (max_yt + max_z_length);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = Vec3::new(e0, e1, e2).abs().max_element();
     let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
@@ -118,4 +126,26 @@ pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<Tri
 /// Conservative absolute error of the point `b0·p0 + b1·p1 + b2·p2` (pbrt-v4 eq. 6.29).
 pub fn triangle_error_bound(hit: &TriangleHit, p0: Vec3, p1: Vec3, p2: Vec3) -> Vec3 {
     ((hit.b0 * p0).abs() + (hit.b1 * p1).abs() + (hit.b2 * p2).abs()) * gamma(7)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unnormalised_directions_hit_at_every_scale() {
+        // A point-to-point ray (as shadow rays are: direction = target − origin, t in
+        // (0, 1)) through the middle of a triangle, the whole configuration scaled from 1e-8
+        // to 1e8: the hit must be found at t = 1/2 at every scale.
+        for k in -8..=8 {
+            let s = 10f32.powi(k);
+            let (p0, p1, p2) =
+                (Vec3::new(-1.0, -1.0, 0.3) * s, Vec3::new(1.0, -1.0, 0.3) * s, Vec3::new(0.0, 1.0, 0.3) * s);
+            let origin = Vec3::new(0.1, -0.2, -0.7) * s;
+            let target = Vec3::new(-0.1, 0.1, 1.3) * s;
+            let ray = Ray { origin, direction: target - origin, t_max: 1.0 };
+            let hit = intersect_triangle(&ray, p0, p1, p2).unwrap_or_else(|| panic!("missed at scale 1e{k}"));
+            assert!((hit.t - 0.5).abs() < 1e-5, "scale 1e{k}: t = {}", hit.t);
+        }
+    }
 }
