@@ -30,7 +30,8 @@ struct Gltf {
 fn bounds(points: &[[f32; 3]]) -> (Vec<f32>, Vec<f32>) {
     let mut lo = vec![f32::INFINITY; 3];
     let mut hi = vec![f32::NEG_INFINITY; 3];
-    for p in points {
+    // Non-finite vertices (the degenerate-input scene has some) stay out of the bounds.
+    for p in points.iter().filter(|p| p.iter().all(|c| c.is_finite())) {
         for k in 0..3 {
             lo[k] = lo[k].min(p[k]);
             hi[k] = hi[k].max(p[k]);
@@ -481,10 +482,55 @@ fn transformed_cornell(path: &Path, root: Value, description: &str) {
     g.write(path, description);
 }
 
+/// Degenerate input beside a well-formed floor and lamp: zero-area and repeated-vertex
+/// triangles (4), triangles with a NaN or infinite vertex (3), and two valid triangles
+/// sharing a zero-length vertex normal. The loader must drop the 7 with warnings that
+/// count them, shade the 2 with their geometric normal (counted too), and render finite
+/// pixels.
+fn degenerate(path: &Path) {
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white", [0.8, 0.8, 0.8]));
+    let mut floor = Mesh::default();
+    floor.quad([[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]], [0.0, 1.0, 0.0]);
+    g.mesh("floor", &floor, white);
+    let lamp = g.material(emitter("lamp", [8.0, 8.0, 8.0], 0.0));
+    let mut quad = Mesh::default();
+    quad.quad([[-0.5, 2.0, -0.5], [0.5, 2.0, -0.5], [0.5, 2.0, 0.5], [-0.5, 2.0, 0.5]], [0.0, 0.0, 0.0]);
+    g.mesh("lamp", &quad, lamp);
+    let (nan, inf) = (f32::NAN, f32::INFINITY);
+    let positions: Vec<[f32; 3]> = vec![
+        // 0–3: a valid quad (two triangles) standing on the floor.
+        [-0.5, 0.0, 0.0],
+        [0.5, 0.0, 0.0],
+        [0.5, 1.0, 0.0],
+        [-0.5, 1.0, 0.0],
+        // 4–6: collinear.
+        [0.0, 0.5, 0.5],
+        [0.5, 0.5, 0.5],
+        [1.0, 0.5, 0.5],
+        // 7–9: NaN and infinite vertices.
+        [nan, 0.2, 0.2],
+        [0.3, inf, 0.1],
+        [0.1, 0.1, -inf],
+    ];
+    let up = [0.0f32, 0.0, 1.0];
+    let normals: Vec<[f32; 3]> = vec![up, up, [0.0, 0.0, 0.0], up, up, up, up, [nan, 0.0, 1.0], up, up];
+    let indices: Vec<u32> = vec![
+        0, 1, 2, 0, 2, 3, // valid, vertex 2's normal is zero
+        4, 5, 6, 5, 6, 4, // zero area (collinear)
+        0, 0, 1, 3, 2, 2, // zero area (a repeated vertex)
+        7, 0, 1, 8, 1, 2, 9, 2, 3, // a NaN or infinite vertex
+    ];
+    g.mesh("degenerate", &Mesh { positions, normals, indices }, white);
+    g.perspective_camera("camera", 50f64.to_radians(), [0.0, 1.0, 3.5], [-0.12, 0.0, 0.0, 0.993]);
+    g.write(path, "Degenerate input: zero-area, repeated-vertex and non-finite triangles and a zero normal beside a lit floor");
+}
+
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     std::fs::create_dir_all(dir.join("hard")).unwrap();
     sealed_room(&dir.join("hard/sealed-room.gltf"));
+    degenerate(&dir.join("hard/degenerate.gltf"));
     for (name, root, what) in [
         ("far-1e6", json!({"translation": [1e6, -1e6, 1e6]}), "translated by 1e6 along each axis"),
         ("far-1e7", json!({"translation": [1e7, 1e7, -1e7]}), "translated by 1e7 along each axis"),

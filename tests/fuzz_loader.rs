@@ -37,8 +37,22 @@ impl Mutator {
 }
 
 const INTERESTING_BYTES: &[u8] = b"\x00\xff\x7f\x80 -.0123456789e\"{}[]:,\\";
-const EXTREME_NUMBERS: &[&str] =
-    &["0", "-1", "-0", "1e309", "-1e309", "1e-45", "4294967295", "4294967296", "2147483648", "9e18", "1e38", "0.5", "65535", "3"];
+const EXTREME_NUMBERS: &[&str] = &[
+    "0",
+    "-1",
+    "-0",
+    "1e309",
+    "-1e309",
+    "1e-45",
+    "4294967295",
+    "4294967296",
+    "2147483648",
+    "9e18",
+    "1e38",
+    "0.5",
+    "65535",
+    "3",
+];
 
 fn mutate(seed: &[u8], m: &mut Mutator) -> Vec<u8> {
     let mut b = seed.to_vec();
@@ -111,7 +125,8 @@ fn seeds() -> Vec<(std::path::PathBuf, Vec<u8>)> {
         for dir in std::fs::read_dir(assets.join("khronos")).unwrap() {
             for f in std::fs::read_dir(dir.unwrap().path()).unwrap() {
                 let p = f.unwrap().path();
-                if p.extension().is_some_and(|e| e == "glb") && std::fs::metadata(&p).unwrap().len() < 100_000 {
+                if p.extension().is_some_and(|e| e == "glb") && std::fs::metadata(&p).unwrap().len() < 100_000
+                {
                     files.push(p);
                 }
             }
@@ -126,8 +141,11 @@ fn run_case(bytes: &[u8], file: &std::path::Path) -> Result<(), String> {
     let Ok((scene, _)) = pathlight::scene::load_from_bytes(bytes, file, &LoadOptions::default()) else {
         return Ok(()); // A clear error is a correct answer to a broken file.
     };
-    let Ok(flat) = FlatScene::build(&scene, &ViewSettings { camera: None, aspect: 1.0 }) else { return Ok(()) };
-    let settings = RenderSettings { width: 4, height: 4, spp: 1, max_depth: Some(4), ..RenderSettings::default() };
+    let Ok(flat) = FlatScene::build(&scene, &ViewSettings { camera: None, aspect: 1.0 }) else {
+        return Ok(());
+    };
+    let settings =
+        RenderSettings { width: 4, height: 4, spp: 1, max_depth: Some(4), ..RenderSettings::default() };
     let mut backend = CpuBackend::new(&flat, &settings);
     backend.render(0, 1).map_err(|e| e.to_string())?;
     let film = backend.film().map_err(|e| e.to_string())?;
@@ -139,7 +157,8 @@ fn run_case(bytes: &[u8], file: &std::path::Path) -> Result<(), String> {
 
 #[test]
 fn mutated_scenes_never_panic_hang_or_render_non_finite() {
-    let cases: usize = std::env::var("PATHLIGHT_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(1000);
+    let cases: usize =
+        std::env::var("PATHLIGHT_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(1000);
     let seed: u64 = std::env::var("PATHLIGHT_FUZZ_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(0x5eed);
     let seeds = seeds();
     std::panic::set_hook(Box::new(|info| {
@@ -174,7 +193,8 @@ fn mutated_scenes_never_panic_hang_or_render_non_finite() {
     }
     let _ = std::panic::take_hook();
     let panics = std::mem::take(&mut *PANICS.lock().unwrap_or_else(|p| p.into_inner()));
-    let ours: Vec<&String> = panics.iter().filter(|at| !at.contains(".cargo") && !at.contains("/rustc/")).collect();
+    let ours: Vec<&String> =
+        panics.iter().filter(|at| !at.contains(".cargo") && !at.contains("/rustc/")).collect();
     eprintln!(
         "fuzz: {cases} cases from {} seeds in {:.1} s; {loaded} loaded; slowest {slowest:?}; {} panics caught inside third-party parsers, {} in pathlight",
         seeds.len(),

@@ -84,3 +84,24 @@ fn far_tiny_and_huge_cornell_boxes_equal_the_plain_one() {
         }
     }
 }
+
+#[test]
+fn degenerate_input_is_dropped_with_counted_warnings_and_renders_finite() {
+    let path = common::root().join("scenes/hard/degenerate.gltf");
+    let (_, warnings) = pathlight::scene::load(&path).unwrap();
+    for expected in [
+        "dropped 4 zero-area triangle(s)",
+        "dropped 3 triangle(s) with a NaN or infinite vertex",
+        "2 triangle(s) have a zero or non-finite vertex normal",
+    ] {
+        assert!(warnings.iter().any(|w| w.contains(expected)), "no warning '{expected}' in {warnings:?}");
+    }
+    let scene = hard_scene("degenerate.gltf", 48);
+    assert_eq!(scene.triangles.len(), 2 + 2 + 2, "floor, lamp and the two valid triangles remain");
+    for (backend, film) in render_both(&scene, 48, 16, 1) {
+        assert_eq!(film.total_rejected(), 0, "{backend}: non-finite samples");
+        let means = film.mean();
+        assert!(means.iter().all(|m| m.is_finite()), "{backend}: a pixel is not finite");
+        assert!(means.iter().any(|m| m.max_element() > 0.01), "{backend}: the lit floor is black");
+    }
+}

@@ -246,14 +246,25 @@ fn load_unchecked(bytes: &[u8], file: &Path, options: &LoadOptions) -> Result<(S
     if stats.degenerate > 0 {
         warnings.push(format!("dropped {} zero-area triangle(s)", stats.degenerate));
     }
+    if stats.non_finite > 0 {
+        warnings.push(format!("dropped {} triangle(s) with a NaN or infinite vertex", stats.non_finite));
+    }
     if stats.bad_normals > 0 {
         warnings.push(format!(
-            "{} vertex normal(s) were zero or not finite; those triangles use their geometric normal",
+            "{} triangle(s) have a zero or non-finite vertex normal; they use their geometric normal",
             stats.bad_normals
         ));
     }
     if scene.triangle_count() == 0 {
-        return Err(err("the scene has no triangles to render".into()));
+        let dropped = if warnings.iter().any(|w| w.starts_with("dropped")) {
+            format!(
+                " ({})",
+                warnings.iter().filter(|w| w.starts_with("dropped")).cloned().collect::<Vec<_>>().join("; ")
+            )
+        } else {
+            String::new()
+        };
+        return Err(err(format!("the scene has no triangles to render{dropped}")));
     }
     Ok((scene, warnings))
 }
@@ -262,6 +273,8 @@ fn load_unchecked(bytes: &[u8], file: &Path, options: &LoadOptions) -> Result<(S
 struct LoadStats {
     skipped_modes: usize,
     degenerate: usize,
+    /// Triangles dropped for a vertex that is NaN or infinite.
+    non_finite: usize,
     bad_normals: usize,
     /// Primitives whose tangents MikkTSpace generated (a normal texture, no TANGENT).
     generated_tangents: usize,
@@ -350,12 +363,6 @@ fn add_mesh(
             .get(&gltf::Semantic::Positions)
             .ok_or_else(|| err(format!("{what}: has no POSITION attribute")))?;
         let positions = read_vec3(buffers, &pos_acc, &format!("{what}: POSITION")).map_err(err)?;
-        if let Some(i) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-            return Err(err(format!(
-                "{what}: POSITION (accessor {}) vertex {i} is not finite",
-                pos_acc.index()
-            )));
-        }
         let normals = match primitive.get(&gltf::Semantic::Normals) {
             Some(acc) => {
                 let n = read_vec3(buffers, &acc, &format!("{what}: NORMAL")).map_err(err)?;
@@ -462,6 +469,12 @@ fn add_mesh(
             }
             let (a, b, c) = if transform.flips_winding { (a, c, b) } else { (a, b, c) };
             let p = [world_positions[a as usize], world_positions[b as usize], world_positions[c as usize]];
+            // A NaN or infinite vertex (in the file, or after the node transforms) has no
+            // place in space: its triangles are dropped and counted.
+            if !p.iter().all(|v| v.is_finite()) {
+                stats.non_finite += 1;
+                continue;
+            }
             if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() == 0.0 {
                 stats.degenerate += 1;
                 continue;
