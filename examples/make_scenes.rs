@@ -344,12 +344,19 @@ fn rot_y(angle: f64) -> [f64; 4] {
 ///
 /// `with_blocks` keeps the two boxes; scenes that put other objects in the room omit them.
 fn cornell(g: &mut Gltf, with_blocks: bool) {
+    cornell_with_light(g, with_blocks, 1.0);
+}
+
+/// [`cornell`] with the light's sides scaled by `light_scale` about its centre and its
+/// radiance by 1/light_scale², so it emits the same power.
+fn cornell_with_light(g: &mut Gltf, with_blocks: bool, light_scale: f64) {
     let mm = |p: [f64; 3]| [p[0] / 1000.0, p[1] / 1000.0, p[2] / 1000.0];
     let inside = mm([278.0, 274.4, 279.6]);
     let white = g.material(lambert("white", [0.725, 0.71, 0.68]));
     let red = g.material(lambert("red", [0.63, 0.065, 0.05]));
     let green = g.material(lambert("green", [0.14, 0.45, 0.091]));
-    let light = g.material(emitter("light", [17.0, 12.0, 4.0], 0.78));
+    let k = 1.0 / (light_scale * light_scale);
+    let light = g.material(emitter("light", [17.0 * k, 12.0 * k, 4.0 * k], 0.78));
 
     let mut walls = Mesh::default();
     let quads = [
@@ -372,8 +379,16 @@ fn cornell(g: &mut Gltf, with_blocks: bool) {
     right.quad([[0.0, 0.0, 559.2], [0.0, 0.0, 0.0], [0.0, 548.8, 0.0], [0.0, 548.8, 559.2]].map(mm), inside);
     g.mesh("green wall", &right, green);
     let mut lamp = Mesh::default();
+    let (cx, cz) = (278.0, 279.5);
+    let lamp_corner = |x: f64, z: f64| [cx + (x - cx) * light_scale, 548.3, cz + (z - cz) * light_scale];
     lamp.quad(
-        [[343.0, 548.3, 227.0], [343.0, 548.3, 332.0], [213.0, 548.3, 332.0], [213.0, 548.3, 227.0]].map(mm),
+        [
+            lamp_corner(343.0, 227.0),
+            lamp_corner(343.0, 332.0),
+            lamp_corner(213.0, 332.0),
+            lamp_corner(213.0, 227.0),
+        ]
+        .map(mm),
         mm([278.0, 0.0, 279.6]),
     );
     g.mesh("light", &lamp, light);
@@ -526,11 +541,77 @@ fn degenerate(path: &Path) {
     g.write(path, "Degenerate input: zero-area, repeated-vertex and non-finite triangles and a zero normal beside a lit floor");
 }
 
+/// A closed box of perfect mirrors (metal, base colour 1, roughness 0) with a small light
+/// inside and the camera inside: every path is a chain of delta bounces ended by roulette,
+/// the bounce guard, or the light.
+fn mirror_box(path: &Path) {
+    let mut g = Gltf::default();
+    let mirror = g.material(metal("perfect mirror", [1.0, 1.0, 1.0], 0.0));
+    let mut walls = Mesh::default();
+    let c = |x: f64, y: f64, z: f64| [x, y, z];
+    let faces = [
+        [c(-1.0, -1.0, -1.0), c(1.0, -1.0, -1.0), c(1.0, -1.0, 1.0), c(-1.0, -1.0, 1.0)],
+        [c(-1.0, 1.0, -1.0), c(1.0, 1.0, -1.0), c(1.0, 1.0, 1.0), c(-1.0, 1.0, 1.0)],
+        [c(-1.0, -1.0, -1.0), c(1.0, -1.0, -1.0), c(1.0, 1.0, -1.0), c(-1.0, 1.0, -1.0)],
+        [c(-1.0, -1.0, 1.0), c(1.0, -1.0, 1.0), c(1.0, 1.0, 1.0), c(-1.0, 1.0, 1.0)],
+        [c(-1.0, -1.0, -1.0), c(-1.0, 1.0, -1.0), c(-1.0, 1.0, 1.0), c(-1.0, -1.0, 1.0)],
+        [c(1.0, -1.0, -1.0), c(1.0, 1.0, -1.0), c(1.0, 1.0, 1.0), c(1.0, -1.0, 1.0)],
+    ];
+    for f in faces {
+        walls.quad(f, [0.0, 0.0, 0.0]);
+    }
+    g.mesh("mirror walls", &walls, mirror);
+    let mut lamp = Mesh::default();
+    lamp.quad([[-0.1, 0.95, -0.1], [0.1, 0.95, -0.1], [0.1, 0.95, 0.1], [-0.1, 0.95, 0.1]], [0.0, 0.0, 0.0]);
+    let mut lamp_material = emitter("small lamp", [10.0, 10.0, 10.0], 0.0);
+    lamp_material["doubleSided"] = json!(true);
+    let lamp_material = g.material(lamp_material);
+    g.mesh("small lamp", &lamp, lamp_material);
+    g.perspective_camera("inside", 70f64.to_radians(), [0.2, -0.3, 0.6], [0.0, 0.0, 0.0, 1.0]);
+    g.write(path, "Mirror box: the camera inside a closed box of perfect mirrors with one small light");
+}
+
+/// Glass of index exactly 1 in the Cornell room: a smooth refracting sphere and a rough one,
+/// and a thin-walled pane. With no change of index the interfaces vanish: the image equals
+/// the empty room's.
+fn index_matched_glass(path: &Path) {
+    let mut g = Gltf::default();
+    cornell(&mut g, true);
+    let mut matched = |name: &str, roughness: f64, solid: bool| {
+        let mut m = glass(name, roughness, if solid { Some(([1.0, 1.0, 1.0], 1.0)) } else { None });
+        m["extensions"]["KHR_materials_ior"] = json!({"ior": 1.0});
+        g.material(m)
+    };
+    let smooth = matched("index-matched smooth solid", 0.0, true);
+    let rough = matched("index-matched rough solid", 0.4, true);
+    let thin = matched("index-matched thin pane", 0.0, false);
+    g.mesh("smooth sphere", &Mesh::icosphere([0.2, 0.3, 0.2], 0.1, 3, false, true), smooth);
+    g.mesh("rough sphere", &Mesh::icosphere([0.38, 0.25, 0.3], 0.08, 3, false, true), rough);
+    let mut pane = Mesh::default();
+    pane.quad(
+        [[0.1, 0.05, 0.15], [0.45, 0.05, 0.15], [0.45, 0.45, 0.15], [0.1, 0.45, 0.15]],
+        [0.28, 0.27, -1.0],
+    );
+    g.mesh("pane", &pane, thin);
+    g.write(
+        path,
+        "Glass of index 1 (smooth and rough solids, a thin pane) in the Cornell box: it must vanish",
+    );
+}
+
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     std::fs::create_dir_all(dir.join("hard")).unwrap();
     sealed_room(&dir.join("hard/sealed-room.gltf"));
     degenerate(&dir.join("hard/degenerate.gltf"));
+    mirror_box(&dir.join("hard/mirror-box.gltf"));
+    index_matched_glass(&dir.join("hard/glass-index-1.gltf"));
+    let mut g = Gltf::default();
+    cornell_with_light(&mut g, true, 0.01);
+    g.write(
+        &dir.join("hard/cornell-tiny-light.gltf"),
+        "The Cornell box with its light shrunk to 1e-4 of its area at the same power (radiance x 1e4)",
+    );
     for (name, root, what) in [
         ("far-1e6", json!({"translation": [1e6, -1e6, 1e6]}), "translated by 1e6 along each axis"),
         ("far-1e7", json!({"translation": [1e7, 1e7, -1e7]}), "translated by 1e7 along each axis"),
