@@ -124,10 +124,8 @@ fn a_mirror_box_ends_and_its_mean_is_finite_and_stable_across_seeds() {
         for r in &runs {
             assert_eq!(r[b].1.total_rejected(), 0, "{backend}: non-finite samples");
         }
-        for c in 0..3 {
-            for (i, j) in [(0, 1), (0, 2), (1, 2)] {
-                let (mi, si) = means[i][c];
-                let (mj, sj) = means[j][c];
+        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+            for (c, (&(mi, si), &(mj, sj))) in means[i].iter().zip(&means[j]).enumerate() {
                 assert!(mi.is_finite() && mi > 0.0, "{backend}: mean {mi}");
                 // 5 standard errors of the difference: a false alarm rate ~1e-6 per pair.
                 let z = (mi - mj) / (si * si + sj * sj).sqrt();
