@@ -599,12 +599,45 @@ fn index_matched_glass(path: &Path) {
     );
 }
 
+/// A smooth sphere of white metal (F₀ = 1) of perceptual roughness `roughness`, to be lit by
+/// a uniform white environment: each pixel then shows the GGX lobe's directional albedo at
+/// its viewing angle.
+fn glossy_furnace(path: &Path, roughness: f64) {
+    let mut g = Gltf::default();
+    let m = g.material(metal(&format!("white metal r={roughness}"), [1.0, 1.0, 1.0], roughness));
+    g.mesh("sphere", &Mesh::icosphere([0.0, 0.0, 0.0], 1.0, 4, false, true), m);
+    g.perspective_camera("camera", 40f64.to_radians(), [0.0, 0.0, 3.2], [0.0, 0.0, 0.0, 1.0]);
+    g.write(
+        path,
+        &format!("Glossy furnace: a white GGX conductor (F0 = 1, roughness {roughness}) sphere for a uniform white environment"),
+    );
+}
+
+/// A solid glass sphere without absorption, to be lit by a uniform white environment.
+fn glass_furnace(path: &Path, roughness: f64) {
+    let mut g = Gltf::default();
+    let m = g.material(glass(&format!("clear glass r={roughness}"), roughness, Some(([1.0, 1.0, 1.0], 1.0))));
+    g.mesh("sphere", &Mesh::icosphere([0.0, 0.0, 0.0], 1.0, 4, false, true), m);
+    g.perspective_camera("camera", 40f64.to_radians(), [0.0, 0.0, 3.2], [0.0, 0.0, 0.0, 1.0]);
+    g.write(
+        path,
+        &format!(
+            "Glass furnace: a clear glass sphere (roughness {roughness}) for a uniform white environment"
+        ),
+    );
+}
+
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     std::fs::create_dir_all(dir.join("hard")).unwrap();
     sealed_room(&dir.join("hard/sealed-room.gltf"));
     degenerate(&dir.join("hard/degenerate.gltf"));
     mirror_box(&dir.join("hard/mirror-box.gltf"));
+    glass_furnace(&dir.join("hard/glass-furnace-smooth.gltf"), 0.0);
+    glass_furnace(&dir.join("hard/glass-furnace-rough.gltf"), 0.5);
+    for r in ["0.3", "0.6", "1.0"] {
+        glossy_furnace(&dir.join(format!("hard/glossy-furnace-{r}.gltf")), r.parse().unwrap());
+    }
     index_matched_glass(&dir.join("hard/glass-index-1.gltf"));
     let mut g = Gltf::default();
     cornell_with_light(&mut g, true, 0.01);

@@ -188,3 +188,195 @@ fn a_tiny_bright_light_agrees_across_backends_and_its_error_bars_hold() {
         }
     }
 }
+
+/// The directional albedo of a white GGX conductor (F = 1) with height-correlated Smith
+/// masking at viewing cosine `mu`, by quadrature over half vectors in f64, independent of
+/// pathlight's BSDF code: E(μ) = ∫ D(h) G₂(wo, wi) (wo·h) / μ dω_h over h with wi = reflect(wo, h)
+/// above the surface (Walter et al. 2007; Heitz 2014 for G₂).
+fn ggx_albedo(mu: f64, alpha: f64) -> f64 {
+    let wo = [(1.0 - mu * mu).sqrt(), 0.0, mu];
+    let a2 = alpha * alpha;
+    let lambda = |c: f64| {
+        let t2 = (1.0 - c * c).max(0.0) / (c * c);
+        0.5 * (-1.0 + (1.0 + a2 * t2).sqrt())
+    };
+    // θh uniform in u = θh^(1/2)·… : a fine uniform grid in θh with many nodes near 0,
+    // where D peaks for small α, by substituting θh = (π/2)·s².
+    let (n_s, n_phi) = (2000, 256);
+    let mut sum = 0.0;
+    for i in 0..n_s {
+        let s = (i as f64 + 0.5) / n_s as f64;
+        let theta = std::f64::consts::FRAC_PI_2 * s * s;
+        let d_theta = std::f64::consts::PI * s / n_s as f64; // dθ/ds · ds
+        let (st, ct) = theta.sin_cos();
+        let d = a2 / (std::f64::consts::PI * (ct * ct * (a2 - 1.0) + 1.0).powi(2));
+        for j in 0..n_phi {
+            let phi = (j as f64 + 0.5) / n_phi as f64 * 2.0 * std::f64::consts::PI;
+            let h = [st * phi.cos(), st * phi.sin(), ct];
+            let oh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2];
+            if oh <= 0.0 {
+                continue;
+            }
+            let wi_z = 2.0 * oh * h[2] - wo[2];
+            if wi_z <= 0.0 {
+                continue;
+            }
+            let g2 = 1.0 / (1.0 + lambda(mu) + lambda(wi_z));
+            sum += d * g2 * oh / mu * st * d_theta * (2.0 * std::f64::consts::PI / n_phi as f64);
+        }
+    }
+    sum
+}
+
+#[test]
+fn ggx_albedo_quadrature_is_right_where_it_is_known() {
+    // A smooth conductor of F = 1 reflects everything: E → 1 as α → 0; and E ≤ 1 always.
+    assert!((ggx_albedo(0.8, 1e-3) - 1.0).abs() < 2e-3, "{}", ggx_albedo(0.8, 1e-3));
+    for alpha in [0.09, 0.36, 1.0] {
+        for mu in [0.2, 0.5, 0.9] {
+            let e = ggx_albedo(mu, alpha);
+            assert!(e > 0.3 && e <= 1.0 + 1e-6, "α {alpha} μ {mu}: {e}");
+        }
+    }
+}
+
+#[test]
+fn a_white_glossy_sphere_under_a_white_sky_shows_its_albedo() {
+    // A convex sphere of white GGX metal under a uniform environment of radiance 1: each
+    // reflected ray escapes, so a pixel's value is the lobe's directional albedo at its
+    // viewing angle. Checked pixel by pixel against the quadrature above, away from the
+    // silhouette (μ > 0.35: there a pixel spans a wide range of angles and the 5120-facet
+    // sphere's normals differ most from its faces).
+    let size = 40;
+    let spp = 128;
+    for roughness in ["0.3", "0.6", "1.0"] {
+        let path = common::root().join(format!("scenes/hard/glossy-furnace-{roughness}.gltf"));
+        let (mut scene, _) = pathlight::scene::load(&path).unwrap();
+        scene.environment = Some(pathlight::light::EnvironmentDesc::constant(glam::Vec3::ONE));
+        let flat =
+            FlatScene::build(&scene, &pathlight::scene::ViewSettings { camera: None, aspect: 1.0 }).unwrap();
+        let r: f64 = roughness.parse().unwrap();
+        let alpha = r * r;
+        // E(μ) tabulated on 41 nodes, interpolated linearly (E is smooth in μ).
+        let table: Vec<f64> = (0..=40).map(|k| ggx_albedo((k as f64 / 40.0).max(1e-3), alpha)).collect();
+        let albedo = |mu: f64| {
+            let x = mu.clamp(0.0, 1.0) * 40.0;
+            let i = (x.floor() as usize).min(39);
+            table[i] + (table[i + 1] - table[i]) * (x - i as f64)
+        };
+        for (backend, film) in render_both(&flat, size, spp, 7) {
+            let means = film.mean();
+            let vars = film.variance_of_mean();
+            let (mut checked, mut outliers, mut worst) = (0, 0, 0.0f64);
+            let (mut sum_diff, mut sum_var) = (0.0f64, 0.0f64);
+            for y in 0..size {
+                for x in 0..size {
+                    let hit = pathlight::cpu::first_hit(&flat, size, size, x, y, 7);
+                    if hit.triangle == u32::MAX {
+                        continue;
+                    }
+                    // The viewing cosine at the pixel's centre.
+                    let ray = pathlight::scene::camera::generate_camera_ray(
+                        &flat.camera,
+                        size,
+                        size,
+                        x,
+                        y,
+                        glam::Vec2::splat(0.5),
+                    );
+                    let mu = -(ray.direction.dot(glam::Vec3::from(hit.normal))) as f64;
+                    if mu < 0.35 {
+                        continue;
+                    }
+                    let i = (y * size + x) as usize;
+                    let expected = albedo(mu);
+                    for c in 0..3 {
+                        let got = means[i][c] as f64;
+                        let sigma = (vars[i][c] as f64).sqrt();
+                        let err = (got - expected).abs();
+                        worst = worst.max(err);
+                        sum_diff += got - expected;
+                        sum_var += sigma * sigma;
+                        // 4σ of noise plus 0.01 for the pixel's footprint over μ and the
+                        // facets' normals (measured: the noise-free part stays below 0.006).
+                        if err > 4.0 * sigma + 0.01 {
+                            outliers += 1;
+                        }
+                        checked += 1;
+                    }
+                }
+            }
+            assert!(checked > 1500, "{backend}: only {checked} pixel channels on the sphere");
+            // Under 4σ a pixel channel strays with probability 6e-5: 1% allows for the
+            // heavier tails of the roughest lobe's samples.
+            assert!(
+                outliers * 100 <= checked,
+                "{backend} roughness {roughness}: {outliers} of {checked} pixel channels differ from the albedo (worst {worst:.4})"
+            );
+            // The mean difference over the sphere, against its standard error: a bias of the
+            // BSDF or the integrator shows here long before it shows per pixel. 0.002 allows
+            // for the facets and the pixel footprint (measured: |mean Δ| < 0.001 at every
+            // roughness, within about one standard error).
+            let n = checked as f64;
+            let (bias, se) = (sum_diff / n, sum_var.sqrt() / n);
+            assert!(
+                bias.abs() <= 4.0 * se + 0.002,
+                "{backend} roughness {roughness}: mean difference {bias:.5} (standard error {se:.5})"
+            );
+            eprintln!(
+                "{backend} roughness {roughness}: {checked} pixel channels, {outliers} outliers, worst |Δ| {worst:.4}, mean Δ {bias:.5} ± {se:.5}"
+            );
+        }
+    }
+}
+
+#[test]
+fn glass_spheres_under_a_white_sky_never_exceed_it() {
+    // A solid glass sphere without absorption under a uniform environment of radiance 1:
+    // smooth glass loses nothing (Fresnel reflection plus refraction, the 1/η² of entering
+    // undone on leaving), so every pixel is exactly 1 in expectation; rough glass (single
+    // scattering microfacets) can only lose. Neither may exceed 1 beyond noise.
+    let size = 32;
+    for (name, smooth) in [("glass-furnace-smooth.gltf", true), ("glass-furnace-rough.gltf", false)] {
+        let path = common::root().join("scenes/hard").join(name);
+        let (mut scene, _) = pathlight::scene::load(&path).unwrap();
+        scene.environment = Some(pathlight::light::EnvironmentDesc::constant(glam::Vec3::ONE));
+        let flat =
+            FlatScene::build(&scene, &pathlight::scene::ViewSettings { camera: None, aspect: 1.0 }).unwrap();
+        for (backend, film) in render_both(&flat, size, 64, 3) {
+            let [(mean, se), ..] = image_mean(&film);
+            // Per 4×4 block, not per pixel: a smooth interface is chosen for reflection in
+            // ~5% of samples, so a pixel of 64 samples that drew none reports a mean a little
+            // above 1 and almost no variance (its estimate misses the rare outcome); 16 pixels
+            // hold ~50 such samples and their mean is well described by its standard error.
+            let (means, vars) = (film.mean(), film.variance_of_mean());
+            let mut worst = f64::MIN;
+            for by in (0..size).step_by(4) {
+                for bx in (0..size).step_by(4) {
+                    let (mut m, mut v) = (0.0f64, 0.0f64);
+                    for y in by..by + 4 {
+                        for x in bx..bx + 4 {
+                            let i = (y * size + x) as usize;
+                            m += means[i].x as f64 / 16.0;
+                            v += vars[i].x as f64 / 256.0;
+                        }
+                    }
+                    worst = worst.max((m - 1.0) / v.sqrt().max(1e-9));
+                }
+            }
+            // 5σ over 64 blocks: a false alarm once in 50,000 runs.
+            assert!(worst < 5.0, "{name} on {backend}: a 4×4 block exceeds 1 by {worst:.1}σ");
+            if smooth {
+                assert!(
+                    (mean - 1.0).abs() < 4.0 * se + 1e-3,
+                    "{name} on {backend}: image mean {mean} ± {se}"
+                );
+            } else {
+                assert!(mean < 1.0 + 4.0 * se, "{name} on {backend}: image mean {mean} ± {se}");
+            }
+            eprintln!(
+                "{name} on {backend}: image mean {mean:.5} ± {se:.5}, largest block excess {worst:.1}σ"
+            );
+        }
+    }
+}
