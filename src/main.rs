@@ -491,7 +491,7 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
     let logging = reference.is_some() || args.log.is_some();
     let start = std::time::Instant::now();
     let mut last_tev = None::<std::time::Instant>;
-    let stats = session.render_to(args.spp, &stop, |b, done| {
+    let rendered = session.render_to(args.spp, &stop, |b, done| {
         let seconds = start.elapsed().as_secs_f64();
         bar.set_position(done as u64);
         let mut stop_now = args.time_limit.is_some_and(|t| seconds >= t);
@@ -525,8 +525,30 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
             }
         }
         Ok(stop_now)
-    })?;
+    });
     bar.finish_and_clear();
+    let tonemap = match args.tonemap {
+        TonemapChoice::Clamp => Tonemap::Clamp,
+        TonemapChoice::Aces => Tonemap::Aces,
+    };
+    let stats = match rendered {
+        Ok(stats) => stats,
+        // A failed pass (a GPU fault or timeout): the passes before it are in the film;
+        // write them where they can still be read back, then report the failure.
+        Err(e) => {
+            let outputs: Vec<String> = args.output.iter().map(|o| o.display().to_string()).collect();
+            return Err(match session.write(&args.output, tonemap, args.exposure) {
+                Ok(()) => Error::Gpu(format!(
+                    "{e}; the {} spp completed before it were written to {}",
+                    session.spp(),
+                    outputs.join(", ")
+                )),
+                Err(w) => {
+                    Error::Gpu(format!("{e}; the samples rendered before it could not be read back ({w})"))
+                }
+            });
+        }
+    };
     if let Some(log) = &args.log {
         let text = if log.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
             format!("{:#}\n", pathlight::film::convergence_json(&rows))
@@ -544,10 +566,6 @@ fn run_render(args: RenderArgs) -> Result<(), Error> {
             eprintln!("warning: --tev: {e}");
         }
     }
-    let tonemap = match args.tonemap {
-        TonemapChoice::Clamp => Tonemap::Clamp,
-        TonemapChoice::Aces => Tonemap::Aces,
-    };
     session.write(&args.output, tonemap, args.exposure)?;
     let rejected = film.total_rejected();
     let samples = film.total_samples() + rejected;

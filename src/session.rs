@@ -244,6 +244,32 @@ impl Session {
         })
     }
 
+    /// A session around a backend of the caller's own (any [`Backend`]: a custom device, or
+    /// a test's failing one) for `flat` at `settings`.
+    pub fn with_backend(
+        source: PathBuf,
+        scene: Scene,
+        flat: Arc<FlatScene>,
+        settings: RenderSettings,
+        backend: Box<dyn Backend + Send>,
+    ) -> Session {
+        Session {
+            source,
+            scene,
+            camera: flat.camera,
+            flat,
+            settings,
+            warnings: Vec::new(),
+            backend_note: None,
+            backend_detail: None,
+            backend,
+            gpu: None,
+            gpu_film: None,
+            spp_done: 0,
+            seconds: 0.0,
+        }
+    }
+
     /// A one-line summary of the scene (triangles, lights, BVH, kernel features).
     pub fn describe(&self) -> String {
         let f = &self.flat;
@@ -312,12 +338,18 @@ impl Session {
         mut checkpoint: impl FnMut(&mut dyn Backend, u32) -> Result<bool>,
     ) -> Result<RenderStats> {
         let before = self.seconds;
-        let stats =
+        let start = std::time::Instant::now();
+        // Passes completed, kept even when a later pass fails (a GPU fault or timeout): the
+        // film still holds them, and the caller may write them out.
+        let mut completed = self.spp_done;
+        let result =
             render_progressive_from(self.backend.as_mut(), self.spp_done, spp, stop, |b, done, _| {
+                completed = done;
                 checkpoint(b, done)
-            })?;
-        self.spp_done = stats.spp;
-        self.seconds = before + stats.seconds;
+            });
+        self.spp_done = completed;
+        self.seconds = before + start.elapsed().as_secs_f64();
+        let stats = result?;
         Ok(RenderStats { seconds: self.seconds, ..stats })
     }
 

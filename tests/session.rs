@@ -141,3 +141,63 @@ fn a_resized_session_renders_what_a_fresh_one_at_that_size_does() {
         a.mean().iter().zip(b.mean()).map(|(x, y)| (*x - y).abs().max_element()).fold(0.0f32, f32::max);
     assert!(worst < 1e-3, "resized and fresh sessions differ by {worst}");
 }
+
+/// A backend that fails on its `fail_at`-th pass, as a GPU fault or timeout would.
+struct FailingBackend {
+    inner: pathlight::cpu::CpuBackend<'static>,
+    passes: u32,
+    fail_at: u32,
+}
+
+impl pathlight::Backend for FailingBackend {
+    fn name(&self) -> String {
+        "failing".into()
+    }
+    fn render(&mut self, sample_offset: u32, samples: u32) -> pathlight::Result<()> {
+        self.passes += 1;
+        if self.passes == self.fail_at {
+            return Err(pathlight::Error::Gpu("simulated device loss".into()));
+        }
+        self.inner.render(sample_offset, samples)
+    }
+    fn film(&mut self) -> pathlight::Result<Film> {
+        self.inner.film()
+    }
+    fn rays_traced(&mut self) -> pathlight::Result<u64> {
+        self.inner.rays_traced()
+    }
+    fn render_rows(&mut self, sample_index: u32, rows: std::ops::Range<u32>) -> pathlight::Result<()> {
+        self.inner.render_rows(sample_index, rows)
+    }
+    fn reset(&mut self) -> pathlight::Result<()> {
+        self.inner.reset()
+    }
+    fn set_camera(&mut self, camera: &pathlight::scene::layout::Camera) -> pathlight::Result<()> {
+        self.inner.set_camera(camera)
+    }
+}
+
+#[test]
+fn a_failed_pass_keeps_the_passes_before_it_and_they_can_be_written() {
+    let reference = open("cornell-box.gltf", BackendChoice::Cpu);
+    let flat = reference.flat.clone();
+    let settings = reference.settings.clone();
+    let inner = pathlight::cpu::CpuBackend::shared(flat.clone(), &settings);
+    let backend = Box::new(FailingBackend { inner, passes: 0, fail_at: 3 });
+    let mut session =
+        Session::with_backend(reference.source.clone(), reference.scene.clone(), flat, settings, backend);
+    let err = session.render_to(16, &never(), |_, _| Ok(false)).unwrap_err();
+    assert!(err.to_string().contains("simulated device loss"), "{err}");
+    let kept = session.spp();
+    assert!(kept > 0 && kept < 16, "two passes completed before the failure, {kept} spp");
+    let film = session.film().unwrap();
+    assert!(film.pixels.iter().all(|p| p.count == kept));
+    // What the command line does on such a failure: write what there is.
+    let exr = std::env::temp_dir().join(format!("pathlight-failed-pass-{}.exr", std::process::id()));
+    session.write(std::slice::from_ref(&exr), pathlight::film::Tonemap::Clamp, 0.0).unwrap();
+    let image = pathlight::film::read_exr(&exr).unwrap();
+    assert_eq!(image.attributes["pathlight.spp"], kept.to_string());
+    let means = film.mean();
+    assert!(image.channels["R"].iter().zip(&means).all(|(r, m)| *r == m.x));
+    let _ = std::fs::remove_file(&exr);
+}
