@@ -142,12 +142,17 @@ impl GltfBsdf {
         let specular_color = Vec3::from(m.specular_color);
         // Outer layers are absent from inside a solid.
         let outside = !volume || front_face;
-        let coat_frame = Frame::from_z(coat_normal);
-        let coat_cos_o = coat_frame.to_local(wo).z;
-        let coat = if outside && coat_cos_o > 0.0 { m.clearcoat.clamp(0.0, 1.0) } else { 0.0 };
+        // Most materials have no coat: skip its frame and Fresnel (as the kernel's
+        // FEATURE_CLEARCOAT does for whole scenes).
+        let has_coat = outside && m.clearcoat > 0.0;
+        let coat_frame =
+            if has_coat { Frame::from_z(coat_normal) } else { Frame { x: Vec3::X, y: Vec3::Y, z: Vec3::Z } };
+        let coat_cos_o = if has_coat { coat_frame.to_local(wo).z } else { 0.0 };
+        let coat = if has_coat && coat_cos_o > 0.0 { m.clearcoat.min(1.0) } else { 0.0 };
         let sheen_color = if outside { Vec3::from(m.sheen_color).max(Vec3::ZERO) } else { Vec3::ZERO };
         let sheen_table = sheen_albedo_table_if(sheen_color.max_element() > 0.0);
-        let coat_fresnel_o = fresnel_schlick(Vec3::splat(CLEARCOAT_F0), 1.0, coat_cos_o).x;
+        let coat_fresnel_o =
+            if coat > 0.0 { fresnel_schlick(Vec3::splat(CLEARCOAT_F0), 1.0, coat_cos_o).x } else { 0.0 };
         let mut b = GltfBsdf {
             base_color,
             metallic: m.metallic,
