@@ -627,6 +627,77 @@ fn glass_furnace(path: &Path, roughness: f64) {
     );
 }
 
+/// A thick slab of clear glass (2 × 0.5 × 2, no absorption) seen at a grazing angle, to be
+/// lit by a uniform white environment: light meets its faces at grazing incidence and is
+/// totally internally reflected inside it.
+fn glass_slab(path: &Path, roughness: f64) {
+    let mut g = Gltf::default();
+    let m = g.material(glass(
+        &format!("clear glass slab r={roughness}"),
+        roughness,
+        Some(([1.0, 1.0, 1.0], 1.0)),
+    ));
+    let (hx, hy, hz) = (1.0, 0.25, 1.0);
+    let mut slab = Mesh::default();
+    let c = |x: f64, y: f64, z: f64| [x * hx, y * hy, z * hz];
+    let faces = [
+        ([c(-1.0, -1.0, -1.0), c(1.0, -1.0, -1.0), c(1.0, -1.0, 1.0), c(-1.0, -1.0, 1.0)], [0.0, -1.0, 0.0]),
+        ([c(-1.0, 1.0, -1.0), c(1.0, 1.0, -1.0), c(1.0, 1.0, 1.0), c(-1.0, 1.0, 1.0)], [0.0, 1.0, 0.0]),
+        ([c(-1.0, -1.0, -1.0), c(1.0, -1.0, -1.0), c(1.0, 1.0, -1.0), c(-1.0, 1.0, -1.0)], [0.0, 0.0, -1.0]),
+        ([c(-1.0, -1.0, 1.0), c(1.0, -1.0, 1.0), c(1.0, 1.0, 1.0), c(-1.0, 1.0, 1.0)], [0.0, 0.0, 1.0]),
+        ([c(-1.0, -1.0, -1.0), c(-1.0, 1.0, -1.0), c(-1.0, 1.0, 1.0), c(-1.0, -1.0, 1.0)], [-1.0, 0.0, 0.0]),
+        ([c(1.0, -1.0, -1.0), c(1.0, 1.0, -1.0), c(1.0, 1.0, 1.0), c(1.0, -1.0, 1.0)], [1.0, 0.0, 0.0]),
+    ];
+    for (corners, out) in faces {
+        slab.quad(corners, [out[0] * 10.0, out[1] * 10.0, out[2] * 10.0]);
+    }
+    g.mesh("slab", &slab, m);
+    // 0.4 above the top face, 3 away, looking down by 10°: the top face is seen at 80–85°.
+    let pitch = -10f64.to_radians();
+    g.perspective_camera(
+        "grazing",
+        50f64.to_radians(),
+        [0.0, 0.65, 3.0],
+        [(pitch / 2.0).sin(), 0.0, 0.0, (pitch / 2.0).cos()],
+    );
+    g.write(
+        path,
+        &format!("Glass slab (roughness {roughness}) at grazing incidence for a uniform white environment"),
+    );
+}
+
+/// Two quads of different materials lying in one plane and overlapping in the middle,
+/// under an area light, seen from above; `which` keeps both, or only the red or the green
+/// one (the references for the blend in the overlap).
+fn coplanar(path: &Path, which: &str) {
+    let mut g = Gltf::default();
+    let red = g.material(lambert("red", [0.8, 0.1, 0.1]));
+    let green = g.material(lambert("green", [0.1, 0.8, 0.1]));
+    let grey = g.material(lambert("grey floor", [0.3, 0.3, 0.3]));
+    let mut floor = Mesh::default();
+    floor.quad([[-3.0, -0.5, -3.0], [3.0, -0.5, -3.0], [3.0, -0.5, 3.0], [-3.0, -0.5, 3.0]], [0.0, 1.0, 0.0]);
+    g.mesh("floor", &floor, grey);
+    if which != "green" {
+        let mut q = Mesh::default();
+        q.quad([[-1.2, 0.0, -0.8], [0.4, 0.0, -0.8], [0.4, 0.0, 0.8], [-1.2, 0.0, 0.8]], [0.0, 1.0, 0.0]);
+        g.mesh("red quad", &q, red);
+    }
+    if which != "red" {
+        let mut q = Mesh::default();
+        // Another triangulation of the shared plane: its edges cross the red quad's.
+        q.quad([[-0.4, 0.0, 0.8], [-0.4, 0.0, -0.8], [1.2, 0.0, -0.8], [1.2, 0.0, 0.8]], [0.0, 1.0, 0.0]);
+        g.mesh("green quad", &q, green);
+    }
+    let lamp = g.material(emitter("lamp", [6.0, 6.0, 6.0], 0.0));
+    let mut l = Mesh::default();
+    l.quad([[-0.6, 2.5, -0.6], [0.6, 2.5, -0.6], [0.6, 2.5, 0.6], [-0.6, 2.5, 0.6]], [0.0, 0.0, 0.0]);
+    g.mesh("lamp", &l, lamp);
+    // Straight down from above (−Z turned to −Y: −90° about X).
+    let h = (PI / 4.0).sin();
+    g.perspective_camera("above", 60f64.to_radians(), [0.0, 2.2, 0.0], [-h, 0.0, 0.0, h]);
+    g.write(path, &format!("Coplanar overlapping quads of two materials ({which})"));
+}
+
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     std::fs::create_dir_all(dir.join("hard")).unwrap();
@@ -635,6 +706,11 @@ fn main() {
     mirror_box(&dir.join("hard/mirror-box.gltf"));
     glass_furnace(&dir.join("hard/glass-furnace-smooth.gltf"), 0.0);
     glass_furnace(&dir.join("hard/glass-furnace-rough.gltf"), 0.5);
+    for which in ["both", "red", "green"] {
+        coplanar(&dir.join(format!("hard/coplanar-{which}.gltf")), which);
+    }
+    glass_slab(&dir.join("hard/glass-slab-smooth.gltf"), 0.0);
+    glass_slab(&dir.join("hard/glass-slab-rough-1.gltf"), 1.0);
     for r in ["0.3", "0.6", "1.0"] {
         glossy_furnace(&dir.join(format!("hard/glossy-furnace-{r}.gltf")), r.parse().unwrap());
     }

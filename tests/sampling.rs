@@ -160,6 +160,18 @@ fn test_materials() -> Vec<(&'static str, Material, bool, Vec3)> {
         ("rough glass entering", Material { flags: MATERIAL_VOLUME, ..glass }, true, z),
         ("rough glass exiting", Material { flags: MATERIAL_VOLUME, ..glass }, false, z),
         ("half-transmissive thin", Material { transmission: 0.5, ..glass }, true, z),
+        (
+            "glass of roughness 1 entering",
+            Material { flags: MATERIAL_VOLUME, alpha_roughness: 1.0, ..glass },
+            true,
+            z,
+        ),
+        (
+            "glass of roughness 1 exiting",
+            Material { flags: MATERIAL_VOLUME, alpha_roughness: 1.0, ..glass },
+            false,
+            z,
+        ),
         ("clearcoat over plastic", coat, true, z),
         ("clearcoat with its own normal", coat, true, tilted),
         ("coated metal", Material { metallic: 1.0, ..coat }, true, tilted),
@@ -383,4 +395,42 @@ fn alias_table_sampling_matches_weights() {
     let expected: Vec<f64> = weights.iter().map(|w| w / total * SAMPLES as f64).collect();
     let r = chi2_test(&observed, &expected, 5.0);
     assert!(r.p_value > ALPHA, "alias sampling: chi2 {:.1} dof {} p = {:.3e}", r.chi2, r.dof, r.p_value);
+}
+
+#[test]
+fn smooth_glass_at_grazing_incidence_stays_finite_and_reflects_almost_all() {
+    // wo.z from 1e-2 down to 1e-7 (and exactly 0, edge-on): no NaN, no infinite weight, and
+    // the Fresnel reflectance tends to 1 from both sides.
+    let glass = Material {
+        base_color: [1.0; 3],
+        alpha: 1.0,
+        specular_color: [1.0; 3],
+        specular_factor: 1.0,
+        ior: 1.5,
+        transmission: 1.0,
+        flags: MATERIAL_VOLUME,
+        ..Default::default()
+    };
+    for cos in [1e-2f32, 1e-4, 1e-7, 0.0] {
+        let wo = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos);
+        for front in [true, false] {
+            let bsdf = GltfBsdf::new(&glass, wo, front, Vec3::Z);
+            let f = bsdf.dielectric_fresnel(cos).x;
+            assert!(f.is_finite() && (0.0..=1.0).contains(&f), "cos {cos}: F = {f}");
+            if cos <= 1e-4 {
+                assert!(f > 0.99, "cos {cos} front {front}: F = {f}");
+            }
+            let mut rng = Rng::new(9, 9, 9, 9);
+            for _ in 0..1000 {
+                if let Some(s) = bsdf.sample(wo, rng.next_1d(), rng.next_2d()) {
+                    assert!(
+                        s.weight.is_finite() && s.weight.min_element() >= 0.0,
+                        "cos {cos}: weight {:?}",
+                        s.weight
+                    );
+                    assert!(s.pdf_solid_angle.is_finite() && s.pdf_solid_angle > 0.0);
+                }
+            }
+        }
+    }
 }
