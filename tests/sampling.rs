@@ -302,10 +302,9 @@ fn lambertian_and_white_metal_do_not_create_energy() {
     }
 }
 
-#[test]
-fn delta_lobes_are_exact() {
-    // Smooth glass entering at normal incidence: reflect 4%, transmit 96%/η² of radiance.
-    let glass = Material {
+/// Smooth, clear glass of index 1.5: a refracting solid.
+fn smooth_solid_glass() -> Material {
+    Material {
         base_color: [1.0; 3],
         alpha: 1.0,
         specular_color: [1.0; 3],
@@ -314,7 +313,13 @@ fn delta_lobes_are_exact() {
         transmission: 1.0,
         flags: MATERIAL_VOLUME,
         ..Default::default()
-    };
+    }
+}
+
+#[test]
+fn delta_lobes_are_exact() {
+    // Smooth glass entering at normal incidence: reflect 4%, transmit 96%/η² of radiance.
+    let glass = smooth_solid_glass();
     let wo = dir(0.0);
     let bsdf = GltfBsdf::new(&glass, wo, true, Vec3::Z);
     assert!(!bsdf.has_non_delta());
@@ -401,16 +406,7 @@ fn alias_table_sampling_matches_weights() {
 fn smooth_glass_at_grazing_incidence_stays_finite_and_reflects_almost_all() {
     // wo.z from 1e-2 down to 1e-7 (and exactly 0, edge-on): no NaN, no infinite weight, and
     // the Fresnel reflectance tends to 1 from both sides.
-    let glass = Material {
-        base_color: [1.0; 3],
-        alpha: 1.0,
-        specular_color: [1.0; 3],
-        specular_factor: 1.0,
-        ior: 1.5,
-        transmission: 1.0,
-        flags: MATERIAL_VOLUME,
-        ..Default::default()
-    };
+    let glass = smooth_solid_glass();
     for cos in [1e-2f32, 1e-4, 1e-7, 0.0] {
         let wo = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos);
         for front in [true, false] {
