@@ -1,0 +1,61 @@
+//! Where should Russian roulette start? Measures, per start depth, the efficiency
+//! 1 / (relMSE × seconds) of CPU renders against a high-sample reference (issue 8: the start
+//! depth is to be chosen by measured efficiency, not by habit).
+//!
+//!   cargo run --release --example rr_depth [-- --size 96 --spp 32 --reference-spp 2048 --seeds 3 SCENES...]
+
+use pathlight::cpu::CpuBackend;
+use pathlight::film::{error_against, LinearImage};
+use pathlight::scene::{FlatScene, ViewSettings};
+use pathlight::{Backend, RenderSettings};
+
+fn render(scene: &FlatScene, size: u32, spp: u32, seed: u32, rr_min_depth: u32) -> (LinearImage, f64) {
+    let settings =
+        RenderSettings { width: size, height: size, spp, seed, rr_min_depth, ..RenderSettings::default() };
+    let mut backend = CpuBackend::new(scene, &settings);
+    let start = std::time::Instant::now();
+    backend.render(0, spp).expect("the CPU backend does not fail");
+    let seconds = start.elapsed().as_secs_f64();
+    (LinearImage::from_film(&backend.film().expect("the CPU film")), seconds)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let value = |name: &str, default: u32| {
+        args.iter()
+            .position(|a| a == name)
+            .and_then(|i| args.get(i + 1))
+            .map_or(default, |v| v.parse().unwrap())
+    };
+    let (size, spp, reference_spp) =
+        (value("--size", 96), value("--spp", 32), value("--reference-spp", 2048));
+    let seeds = value("--seeds", 3);
+    let mut scenes: Vec<String> = args
+        .iter()
+        .enumerate()
+        .filter(|(i, a)| !a.starts_with("--") && (*i == 0 || !args[i - 1].starts_with("--")))
+        .map(|(_, a)| a.clone())
+        .collect();
+    if scenes.is_empty() {
+        scenes = vec!["scenes/cornell-box.gltf".into(), "scenes/glass-smooth.gltf".into()];
+    }
+    println!("| scene | roulette from depth | relMSE at {spp} spp | seconds | efficiency 1/(relMSE·s) |");
+    println!("|---|---:|---:|---:|---:|");
+    for path in &scenes {
+        let (scene, _) = pathlight::scene::load(std::path::Path::new(path)).unwrap_or_else(|e| panic!("{e}"));
+        let flat = FlatScene::build(&scene, &ViewSettings { camera: None, aspect: 1.0 }).unwrap();
+        // The reference without roulette's noise at the depths that matter: roulette from
+        // depth 8, many samples (roulette is unbiased at every start depth).
+        let (reference, _) = render(&flat, size, reference_spp, 1000, 8);
+        for depth in [1u32, 2, 3, 4, 5, 6, 8] {
+            // Several seeds per depth: the error of one render at low spp is itself noisy.
+            let (mut rel, mut secs) = (0.0, 0.0);
+            for seed in 1..=seeds {
+                let (image, s) = render(&flat, size, spp, seed, depth);
+                rel += error_against(&image, &reference).1 / seeds as f64;
+                secs += s / seeds as f64;
+            }
+            println!("| {path} | {depth} | {rel:.5} | {secs:.3} | {:.1} |", 1.0 / (rel * secs));
+        }
+    }
+}
