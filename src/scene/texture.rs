@@ -428,53 +428,40 @@ pub fn textured_material(
     lod: Vec2,
 ) -> Material {
     let mut m = *material;
-    let arrays = &LodArrays { arrays, lod };
-    if let Some(t) = arrays.lookup(m.base_color_texture, uv, true) {
+    if let Some(t) = arrays.lookup_lod(m.base_color_texture, uv, lod, true) {
         m.base_color = (Vec3::from(m.base_color) * t.truncate()).to_array();
         m.alpha *= t.w;
     }
-    if let Some(t) = arrays.lookup(m.metallic_roughness_texture, uv, false) {
+    if let Some(t) = arrays.lookup_lod(m.metallic_roughness_texture, uv, lod, false) {
         m.metallic *= t.z;
         m.roughness *= t.y;
         m.alpha_roughness = alpha_from_roughness(m.roughness);
     }
-    if let Some(t) = arrays.lookup(m.emissive_texture, uv, true) {
+    if let Some(t) = arrays.lookup_lod(m.emissive_texture, uv, lod, true) {
         m.emission = (Vec3::from(m.emission) * t.truncate()).to_array();
     }
-    if let Some(t) = arrays.lookup(m.transmission_texture, uv, false) {
+    if let Some(t) = arrays.lookup_lod(m.transmission_texture, uv, lod, false) {
         m.transmission *= t.x;
     }
-    if let Some(t) = arrays.lookup(m.specular_texture, uv, false) {
+    if let Some(t) = arrays.lookup_lod(m.specular_texture, uv, lod, false) {
         m.specular_factor *= t.w;
     }
-    if let Some(t) = arrays.lookup(m.specular_color_texture, uv, true) {
+    if let Some(t) = arrays.lookup_lod(m.specular_color_texture, uv, lod, true) {
         m.specular_color = (Vec3::from(m.specular_color) * t.truncate()).to_array();
     }
-    if let Some(t) = arrays.lookup(m.clearcoat_texture, uv, false) {
+    if let Some(t) = arrays.lookup_lod(m.clearcoat_texture, uv, lod, false) {
         m.clearcoat *= t.x;
     }
-    if let Some(t) = arrays.lookup(m.clearcoat_roughness_texture, uv, false) {
+    if let Some(t) = arrays.lookup_lod(m.clearcoat_roughness_texture, uv, lod, false) {
         m.clearcoat_roughness *= t.y;
     }
-    if let Some(t) = arrays.lookup(m.sheen_color_texture, uv, true) {
+    if let Some(t) = arrays.lookup_lod(m.sheen_color_texture, uv, lod, true) {
         m.sheen_color = (Vec3::from(m.sheen_color) * t.truncate()).to_array();
     }
-    if let Some(t) = arrays.lookup(m.sheen_roughness_texture, uv, false) {
+    if let Some(t) = arrays.lookup_lod(m.sheen_roughness_texture, uv, lod, false) {
         m.sheen_roughness *= t.w;
     }
     m
-}
-
-/// Lookups at one footprint (for [`textured_material`]).
-struct LodArrays<'a, 'b> {
-    arrays: &'a TextureArrays<'b>,
-    lod: Vec2,
-}
-
-impl LodArrays<'_, '_> {
-    fn lookup(&self, binding: u32, uv: (Vec2, Vec2), srgb: bool) -> Option<glam::Vec4> {
-        self.arrays.lookup_lod(binding, uv, self.lod, srgb)
-    }
 }
 
 /// Does a ray hit on `triangle` at barycentrics `b` count, by its material's alpha mode
@@ -573,16 +560,21 @@ mod tests {
         assert_eq!(flat.infos[1].width, side / 2);
     }
 
-    #[test]
-    fn mip_levels_average_in_linear_light() {
-        // A 2×2 sRGB checker of black and white: its 1×1 level is linear 0.5, which sRGB
-        // encodes as 188 (not the 128 that averaging the codes would give).
-        let image = ImageDesc {
+    /// A 2×2 RGBA8 checker: black, white / white, black.
+    fn checker_image() -> ImageDesc {
+        ImageDesc {
             name: "checker".into(),
             width: 2,
             height: 2,
             rgba8: [0u8, 0, 0, 255, 255, 255, 255, 255, 255, 255, 255, 255, 0, 0, 0, 255].to_vec(),
-        };
+        }
+    }
+
+    #[test]
+    fn mip_levels_average_in_linear_light() {
+        // A 2×2 sRGB checker of black and white: its 1×1 level is linear 0.5, which sRGB
+        // encodes as 188 (not the 128 that averaging the codes would give).
+        let image = checker_image();
         let chain = mip_chain(&image, true);
         assert_eq!(chain.len(), 2);
         assert_eq!(&chain[1].rgba8, &[188, 188, 188, 255]);
@@ -595,12 +587,7 @@ mod tests {
 
     #[test]
     fn trilinear_lookup_blends_the_levels_around_lod() {
-        let image = ImageDesc {
-            name: "checker".into(),
-            width: 2,
-            height: 2,
-            rgba8: [0u8, 0, 0, 255, 255, 255, 255, 255, 255, 255, 255, 255, 0, 0, 0, 255].to_vec(),
-        };
+        let image = checker_image();
         let texture = TextureDesc {
             image: Some(0),
             wrap_s: WRAP_REPEAT,
