@@ -358,13 +358,13 @@ impl State {
         }
         self.frames += 1;
         let title_due = self.title_at.elapsed() >= TITLE_INTERVAL;
-        if title_due || self.converged {
-            if let Some(e) = options.target_error {
-                let film = self.session.film()?;
-                self.predicted = predicted_relmse(&LinearImage::from_film(&film));
-                if self.predicted.is_some_and(|p| p <= e) && self.next_row == 0 {
-                    self.converged = true;
-                }
+        // The predicted error needs the film on the host: read it at the title's rate only,
+        // and not again once accumulation has stopped. It feeds the title and --target-error.
+        if title_due && (self.predicted.is_none() || !self.converged) {
+            self.predicted = predicted_relmse(&LinearImage::from_film(&self.session.film()?));
+            let reached = options.target_error.is_some_and(|e| self.predicted.is_some_and(|p| p <= e));
+            if reached && self.next_row == 0 {
+                self.converged = true;
             }
         }
         self.draw()?;
@@ -423,10 +423,6 @@ impl State {
 
     fn update_title(&mut self) -> Result<()> {
         self.title_at = Instant::now();
-        if self.predicted.is_none() || !self.converged {
-            // The predicted error needs the film on the host: at the title's rate only.
-            self.predicted = predicted_relmse(&LinearImage::from_film(&self.session.film()?));
-        }
         let s = &self.session.settings;
         let seconds = self.session.seconds();
         let rate = self.session.spp() as f64 * s.width as f64 * s.height as f64 / seconds.max(1e-9) / 1e6;
