@@ -423,33 +423,44 @@ fn sheen_scaling(b: GltfBsdf, mu_o: f32, mu_i: f32) -> f32 {
     return 1.0;
 }
 
-fn coat_eval(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+// Twin of `coat_directions`: wo and wi in the coat's frame, `valid` where the rough coat
+// lobe acts on them.
+struct CoatDirections {
+    wo: vec3<f32>,
+    wi: vec3<f32>,
+    valid: bool,
+}
+
+fn coat_directions(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> CoatDirections {
+    var d: CoatDirections;
     if (!FEATURE_CLEARCOAT || b.coat <= 0.0 || b.coat_alpha == 0.0 || wi.z < COAT_MIN_BASE_COSINE) {
+        return d;
+    }
+    d.wo = frame_to_local(b.coat_frame, wo);
+    d.wi = frame_to_local(b.coat_frame, wi);
+    d.valid = d.wo.z > 0.0 && d.wi.z > 0.0;
+    return d;
+}
+
+fn coat_eval(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let d = coat_directions(b, wo, wi);
+    if (!d.valid) {
         return 0.0;
     }
-    let wo_c = frame_to_local(b.coat_frame, wo);
-    let wi_c = frame_to_local(b.coat_frame, wi);
-    if (wo_c.z <= 0.0 || wi_c.z <= 0.0) {
-        return 0.0;
-    }
-    let h = reflection_half_vector(wo_c, wi_c);
+    let h = reflection_half_vector(d.wo, d.wi);
     if (h.w == 0.0) {
         return 0.0;
     }
-    let fresnel = fresnel_schlick(vec3<f32>(CLEARCOAT_F0), 1.0, dot(wo_c, h.xyz)).x;
-    return b.coat * fresnel * reflection_eval(wo_c, wi_c, b.coat_alpha) * wi_c.z / wi.z;
+    let fresnel = fresnel_schlick(vec3<f32>(CLEARCOAT_F0), 1.0, dot(d.wo, h.xyz)).x;
+    return b.coat * fresnel * reflection_eval(d.wo, d.wi, b.coat_alpha) * d.wi.z / wi.z;
 }
 
 fn coat_pdf(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
-    if (!FEATURE_CLEARCOAT || b.p_coat <= 0.0 || b.coat_alpha == 0.0 || wi.z < COAT_MIN_BASE_COSINE) {
+    let d = coat_directions(b, wo, wi);
+    if (!d.valid) {
         return 0.0;
     }
-    let wo_c = frame_to_local(b.coat_frame, wo);
-    let wi_c = frame_to_local(b.coat_frame, wi);
-    if (wo_c.z <= 0.0 || wi_c.z <= 0.0) {
-        return 0.0;
-    }
-    return reflection_pdf(wo_c, wi_c, b.coat_alpha);
+    return reflection_pdf(d.wo, d.wi, b.coat_alpha);
 }
 
 fn dielectric_fresnel(b: GltfBsdf, cos_theta: f32) -> vec3<f32> {

@@ -232,27 +232,24 @@ impl GltfBsdf {
     /// that the integrator's |cos θi| leaves the coat's own cosine: the coat's normal is not
     /// the base's.
     fn coat_eval(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if self.coat <= 0.0 || self.coat_alpha == 0.0 || wi.z < COAT_MIN_BASE_COSINE {
-            return 0.0;
-        }
-        let (wo_c, wi_c) = (self.coat_frame.to_local(wo), self.coat_frame.to_local(wi));
-        if wo_c.z <= 0.0 || wi_c.z <= 0.0 {
-            return 0.0;
-        }
+        let Some((wo_c, wi_c)) = self.coat_directions(wo, wi) else { return 0.0 };
         let Some(h) = reflection_half_vector(wo_c, wi_c) else { return 0.0 };
         let fresnel = fresnel_schlick(Vec3::splat(CLEARCOAT_F0), 1.0, wo_c.dot(h)).x;
         self.coat * fresnel * reflection_eval(wo_c, wi_c, self.coat_alpha) * wi_c.z / wi.z
     }
 
     fn coat_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if self.p_coat <= 0.0 || self.coat_alpha == 0.0 || wi.z < COAT_MIN_BASE_COSINE {
-            return 0.0;
+        self.coat_directions(wo, wi).map_or(0.0, |(wo_c, wi_c)| reflection_pdf(wo_c, wi_c, self.coat_alpha))
+    }
+
+    /// `wo` and `wi` in the coat's frame, where the rough coat lobe acts on them: a coat,
+    /// both directions above it, and `wi` above the base's horizon too.
+    fn coat_directions(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+        if self.coat <= 0.0 || self.coat_alpha == 0.0 || wi.z < COAT_MIN_BASE_COSINE {
+            return None;
         }
         let (wo_c, wi_c) = (self.coat_frame.to_local(wo), self.coat_frame.to_local(wi));
-        if wo_c.z <= 0.0 || wi_c.z <= 0.0 {
-            return 0.0;
-        }
-        reflection_pdf(wo_c, wi_c, self.coat_alpha)
+        (wo_c.z > 0.0 && wi_c.z > 0.0).then_some((wo_c, wi_c))
     }
 
     /// F_d at `cos_theta` = |wo·h| (see the module comment).
