@@ -88,12 +88,14 @@ fn texture_sample(info: TextureInfo, uv: vec2<f32>, srgb: bool, lod_in: f32) -> 
     let l0f = floor(lod);
     let t = lod - l0f;
     let l0 = u32(l0f);
-    let a = level_sample(texture_level(info, l0), uv, srgb, false);
-    if (t == 0.0 || l0 + 1u >= levels) {
-        return a;
+    // Both levels through one copy of the bilinear code (see `textured_material`).
+    let count = select(2u, 1u, t == 0.0 || l0 + 1u >= levels);
+    var result = vec4<f32>(0.0);
+    for (var k = 0u; k < count; k++) {
+        let weight = select(1.0 - t, t, k == 1u);
+        result += select(weight, 1.0, count == 1u) * level_sample(texture_level(info, l0 + k), uv, srgb, false);
     }
-    let b = level_sample(texture_level(info, l0 + 1u), uv, srgb, false);
-    return a * (1.0 - t) + b * t;
+    return result;
 }
 
 // UV sets 0 (xy) and 1 (zw) of a triangle at barycentrics b.
@@ -140,45 +142,72 @@ fn cross2(a: vec2<f32>, b: vec2<f32>) -> f32 {
     return a.x * b.y - a.y * b.x;
 }
 
+// The texture slots of a material, in `textured_material`'s order.
+const TEXTURE_SLOTS: u32 = 10u;
+
+// One loop over the slots, not one inlined lookup per slot: a lookup is two bilinear level
+// samples of four texel fetches each, and ten inlined copies of it made the specialised
+// kernel of every textured scene 2–4× slower on an H100 (register pressure; bench/RESULTS.md).
 fn textured_material(material: Material, uv: vec4<f32>, lod: vec2<f32>) -> Material {
     var m = material;
     if (!FEATURE_TEXTURES) {
         return m;
     }
-    if (m.base_color_texture != INVALID_INDEX) {
-        let t = texture_lookup_lod(m.base_color_texture, uv, lod, true);
-        m.base_color *= t.xyz;
-        m.alpha *= t.w;
-    }
-    if (m.metallic_roughness_texture != INVALID_INDEX) {
-        let t = texture_lookup_lod(m.metallic_roughness_texture, uv, lod, false);
-        m.metallic *= t.z;
-        m.roughness *= t.y;
-        m.alpha_roughness = alpha_from_roughness(m.roughness);
-    }
-    if (m.emissive_texture != INVALID_INDEX) {
-        m.emission *= texture_lookup_lod(m.emissive_texture, uv, lod, true).xyz;
-    }
-    if (m.transmission_texture != INVALID_INDEX) {
-        m.transmission *= texture_lookup_lod(m.transmission_texture, uv, lod, false).x;
-    }
-    if (m.specular_texture != INVALID_INDEX) {
-        m.specular_factor *= texture_lookup_lod(m.specular_texture, uv, lod, false).w;
-    }
-    if (m.specular_color_texture != INVALID_INDEX) {
-        m.specular_color *= texture_lookup_lod(m.specular_color_texture, uv, lod, true).xyz;
-    }
-    if (m.clearcoat_texture != INVALID_INDEX) {
-        m.clearcoat *= texture_lookup_lod(m.clearcoat_texture, uv, lod, false).x;
-    }
-    if (m.clearcoat_roughness_texture != INVALID_INDEX) {
-        m.clearcoat_roughness *= texture_lookup_lod(m.clearcoat_roughness_texture, uv, lod, false).y;
-    }
-    if (m.sheen_color_texture != INVALID_INDEX) {
-        m.sheen_color *= texture_lookup_lod(m.sheen_color_texture, uv, lod, true).xyz;
-    }
-    if (m.sheen_roughness_texture != INVALID_INDEX) {
-        m.sheen_roughness *= texture_lookup_lod(m.sheen_roughness_texture, uv, lod, false).w;
+    var slots = array<u32, TEXTURE_SLOTS>(
+        m.base_color_texture,
+        m.metallic_roughness_texture,
+        m.emissive_texture,
+        m.transmission_texture,
+        m.specular_texture,
+        m.specular_color_texture,
+        m.clearcoat_texture,
+        m.clearcoat_roughness_texture,
+        m.sheen_color_texture,
+        m.sheen_roughness_texture,
+    );
+    for (var k = 0u; k < TEXTURE_SLOTS; k++) {
+        let binding_index = slots[k];
+        if (binding_index == INVALID_INDEX) {
+            continue;
+        }
+        // Colours are sRGB-encoded; factors are linear.
+        let srgb = k == 0u || k == 2u || k == 5u || k == 8u;
+        let t = texture_lookup_lod(binding_index, uv, lod, srgb);
+        switch k {
+            case 0u: {
+                m.base_color *= t.xyz;
+                m.alpha *= t.w;
+            }
+            case 1u: {
+                m.metallic *= t.z;
+                m.roughness *= t.y;
+                m.alpha_roughness = alpha_from_roughness(m.roughness);
+            }
+            case 2u: {
+                m.emission *= t.xyz;
+            }
+            case 3u: {
+                m.transmission *= t.x;
+            }
+            case 4u: {
+                m.specular_factor *= t.w;
+            }
+            case 5u: {
+                m.specular_color *= t.xyz;
+            }
+            case 6u: {
+                m.clearcoat *= t.x;
+            }
+            case 7u: {
+                m.clearcoat_roughness *= t.y;
+            }
+            case 8u: {
+                m.sheen_color *= t.xyz;
+            }
+            default: {
+                m.sheen_roughness *= t.w;
+            }
+        }
     }
     return m;
 }
