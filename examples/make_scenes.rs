@@ -111,6 +111,13 @@ impl Gltf {
         self.nodes.push(json!({"name": name, "camera": self.cameras.len() - 1, "translation": translation, "rotation": rotation}));
     }
 
+    /// An orthographic camera at `translation` looking down −Z, showing ±`mag` units.
+    fn orthographic_camera(&mut self, name: &str, mag: f64, translation: [f64; 3]) {
+        self.cameras.push(json!({"type": "orthographic",
+            "orthographic": {"xmag": mag, "ymag": mag, "znear": 0.01, "zfar": 100.0}}));
+        self.nodes.push(json!({"name": name, "camera": self.cameras.len() - 1, "translation": translation}));
+    }
+
     fn light(&mut self, light: Value, translation: [f64; 3], rotation: [f64; 4]) {
         self.extensions.insert("KHR_lights_punctual");
         self.lights.push(light);
@@ -669,6 +676,31 @@ fn glass_slab(path: &Path, roughness: f64) {
 /// Two quads of different materials lying in one plane and overlapping in the middle,
 /// under an area light, seen from above; `which` keeps both, or only the red or the green
 /// one (the references for the blend in the overlap).
+/// Case 4 (shadow terminator): a white Lambertian unit sphere at the origin, an icosphere of
+/// `level` subdivisions with smooth (vertex = position) normals, lit by a directional light
+/// from 76° off the view direction, seen by an orthographic camera down −Z (±1.1 units).
+/// The terminator crosses the visible disk at x ≈ −0.24; around it light arrives at grazing
+/// angles, where a coarse mesh's smooth normals disagree most with its faces.
+fn terminator(path: &Path, level: u32) {
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white", [0.8, 0.8, 0.8]));
+    g.mesh("sphere", &Mesh::icosphere([0.0, 0.0, 0.0], 1.0, level, false, true), white);
+    // The light travels along −Z turned 76° about +Y: (−sin 76°, 0, −cos 76°).
+    g.light(
+        json!({"type": "directional", "color": [1.0, 1.0, 1.0], "intensity": 3.0}),
+        [0.0; 3],
+        rot_y(76f64.to_radians()),
+    );
+    g.orthographic_camera("camera", 1.1, [0.0, 0.0, 3.0]);
+    let faces = 20 * 4u32.pow(level);
+    g.write(
+        path,
+        &format!(
+            "Shadow terminator: a {faces}-triangle smooth-shaded sphere under grazing directional light"
+        ),
+    );
+}
+
 fn coplanar(path: &Path, which: &str) {
     let mut g = Gltf::default();
     let red = g.material(lambert("red", [0.8, 0.1, 0.1]));
@@ -709,6 +741,8 @@ fn main() {
     for which in ["both", "red", "green"] {
         coplanar(&dir.join(format!("hard/coplanar-{which}.gltf")), which);
     }
+    terminator(&dir.join("hard/terminator-80.gltf"), 1);
+    terminator(&dir.join("hard/terminator-20480.gltf"), 5);
     glass_slab(&dir.join("hard/glass-slab-smooth.gltf"), 0.0);
     glass_slab(&dir.join("hard/glass-slab-rough-1.gltf"), 1.0);
     for r in ["0.3", "0.6", "1.0"] {
@@ -772,6 +806,23 @@ fn main() {
     g.write(
         &dir.join("glass-smooth.gltf"),
         "Smooth glass: a tinted refracting sphere and a thin-walled pane in the Cornell room",
+    );
+
+    // The benchmark's glass scene (issue 8): a perfect mirror sphere and a clear solid
+    // glass sphere in the Cornell room, the classic pair, with materials a peer renderer
+    // models identically (a mirror of reflectance 1; clear glass of index 1.5).
+    let mut g = Gltf::default();
+    cornell(&mut g, false);
+    let mirror = g.material(metal("mirror (reflectance 1)", [1.0, 1.0, 1.0], 0.0));
+    let clear = g.material(json!({"name": "clear glass (solid, index 1.5)",
+        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
+            "KHR_materials_volume": {"thicknessFactor": 0.1}}}));
+    g.mesh("mirror sphere", &Mesh::icosphere([0.39, 0.1, 0.37], 0.1, 4, false, true), mirror);
+    g.mesh("glass sphere", &Mesh::icosphere([0.17, 0.1, 0.2], 0.1, 4, false, true), clear);
+    g.write(
+        &dir.join("cornell-spheres.gltf"),
+        "A mirror sphere and a clear glass sphere in the Cornell room (the speed-against-error benchmark's glass scene)",
     );
 
     // Rough glass: the same objects frosted.

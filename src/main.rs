@@ -119,6 +119,44 @@ struct BenchArgs {
     /// The shared assets folder.
     #[arg(long, default_value = "../shared/assets")]
     assets: PathBuf,
+    /// Measure time to equal error against a peer renderer in the same run (see
+    /// bench/README.md): pathlight's backends and the peer each render every scene against
+    /// one reference until --peer-seconds have passed.
+    #[arg(long, value_enum)]
+    peer: Option<Peer>,
+    /// Seconds each renderer's error series runs for, per scene.
+    #[arg(long, default_value_t = 60.0)]
+    peer_seconds: f64,
+    /// Samples per pixel of a reference rendered in this run (OUT/<scene>/reference.exr is
+    /// reused when present; render it on a fast GPU with --references-only).
+    #[arg(long, default_value_t = 4096)]
+    reference_spp: u32,
+    /// With --peer: only render the missing references, then stop.
+    #[arg(long, requires = "peer")]
+    references_only: bool,
+    /// With --peer: render the references and pathlight's series but not the peer's (a
+    /// machine without it, e.g. a GPU measured beside the peer's machine; no comparison).
+    #[arg(long, requires = "peer")]
+    pathlight_only: bool,
+    /// With --peer: where references, error series, plots and the summary go.
+    #[arg(long, default_value = "bench/peer")]
+    out: PathBuf,
+    /// With --peer: the Python interpreter that has Mitsuba 3 installed.
+    #[arg(long, default_value = "python3")]
+    python: String,
+    /// With --peer: the Mitsuba 3 variant (scalar_rgb where LLVM is missing).
+    #[arg(long, default_value = "llvm_ad_rgb")]
+    variant: String,
+    /// With --peer: samples per pixel of the peer's converged image, z-tested against the
+    /// reference.
+    #[arg(long, default_value_t = 1024)]
+    converged_spp: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Peer {
+    /// Mitsuba 3 (`pip install mitsuba`), through bench/mitsuba_peer.py.
+    Mitsuba,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -341,6 +379,9 @@ fn run_bench(args: BenchArgs) -> Result<(), Error> {
     if let Some(g) = &gpu {
         out!("GPU: {}", g.name());
     }
+    if args.peer.is_some() {
+        return run_peer_bench(args, &root, gpu);
+    }
     out!(
         "Settings: {}×{}, {} timed spp after 1 warm-up spp, seed 0, unlimited depth\n",
         args.width,
@@ -389,6 +430,70 @@ fn run_bench(args: BenchArgs) -> Result<(), Error> {
             );
         }
     }
+    Ok(())
+}
+
+/// `bench --peer`: time to equal error against the peer on every scene, then the table,
+/// the CSV series and the plots under `--out`.
+fn run_peer_bench(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) -> Result<(), Error> {
+    use pathlight::bench::peer::{self, PeerOptions};
+    use pathlight::bench::BenchScene;
+    if !(args.peer_seconds > 0.0 && args.peer_seconds.is_finite()) {
+        return Err(Error::Settings("--peer-seconds must be positive and finite".into()));
+    }
+    let options = PeerOptions {
+        width: args.width,
+        height: args.height,
+        seconds: args.peer_seconds,
+        reference_spp: args.reference_spp,
+        out: args.out.clone(),
+        python: args.python.clone(),
+        script: peer::default_script(root),
+        variant: args.variant.clone(),
+        converged_spp: args.converged_spp,
+        run_peer: !args.pathlight_only,
+        cpu: !args.no_cpu,
+        gpu,
+    };
+    let scenes: Vec<BenchScene> =
+        args.scenes.iter().map(|n| BenchScene::resolve(n, root, &args.assets)).collect();
+    if args.references_only {
+        for scene in &scenes {
+            let flat = Arc::new(pathlight::scene::FlatScene::build(
+                &scene.load()?,
+                &pathlight::scene::ViewSettings {
+                    camera: None,
+                    aspect: args.width as f64 / args.height as f64,
+                },
+            )?);
+            let (_, note) = peer::reference(scene, &flat, &options)?;
+            out!("{}: {note}", scene.name);
+        }
+        return Ok(());
+    }
+    out!(
+        "Peer: {:?} ({}), {}×{}, each series {} s, references at {} spp unless reused\n",
+        args.peer.expect("checked by the caller"),
+        args.variant,
+        args.width,
+        args.height,
+        args.peer_seconds,
+        args.reference_spp
+    );
+    let mut results = Vec::new();
+    for scene in &scenes {
+        let r = peer::run_scene(scene, &options)?;
+        out!("{}: reference {}", r.scene, r.reference_note);
+        if let Some(agreement) = &r.agreement {
+            out!("{}: Mitsuba's converged image vs the reference: {agreement}", r.scene);
+        }
+        results.push(r);
+    }
+    let table = peer::markdown(&results);
+    out!("\n{table}");
+    let summary = args.out.join("summary.md");
+    std::fs::write(&summary, &table).map_err(|e| Error::io(&summary, e))?;
+    peer::plot(&options, &args.scenes);
     Ok(())
 }
 

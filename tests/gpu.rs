@@ -160,6 +160,7 @@ fn same_seed_agrees_scene(file: &str, scene: &pathlight::scene::FlatScene, toler
 /// Every bundled scene; `every_bundled_scene_is_compared` keeps this list honest.
 const SCENES: &[&str] = &[
     "cornell-box.gltf",
+    "cornell-spheres.gltf",
     "furnace-0.5.gltf",
     "furnace-0.9.gltf",
     "glossy-metal.gltf",
@@ -196,6 +197,11 @@ fn same_seed_renders_agree_to_rounding() {
 #[test]
 fn cornell_box_gpu_matches_cpu() {
     gpu_matches_cpu("cornell-box.gltf", 32, 128);
+}
+
+#[test]
+fn cornell_spheres_gpu_matches_cpu() {
+    gpu_matches_cpu("cornell-spheres.gltf", 32, 128);
 }
 
 #[test]

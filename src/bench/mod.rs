@@ -39,35 +39,95 @@ pub struct PrepRow {
     pub features: String,
 }
 
-/// Loads a scene; `bunny-in-cornell` composes the Stanford bunny (from `assets`) into the
-/// Cornell box with a white Lambertian material, since the scan has no material or light.
-pub fn load_bench_scene(name: &str, root: &Path, assets: &Path) -> Result<Scene> {
-    if name == "bunny-in-cornell" {
-        let (mut room, _) = crate::scene::load(&root.join("scenes/cornell-box.gltf"))?;
-        let (bunny, _) = crate::scene::load(&assets.join("bvh/stanford-bunny.glb"))?;
-        // The scan is ~0.155 units tall with its base at y = 0.033; scale it to 0.39 m,
-        // stand it on the floor in the middle of the room facing the camera.
-        let s = 2.5;
-        let transform = DMat4::from_translation(DVec3::new(0.28, -0.033 * s, 0.28))
-            * DMat4::from_quat(DQuat::from_rotation_y(std::f64::consts::PI))
-            * DMat4::from_scale(DVec3::splat(s));
-        let white = MaterialDesc {
-            name: "bunny (white Lambertian)".into(),
-            base_color: Vec3::splat(0.75),
-            metallic: 0.0,
-            roughness: 1.0,
-            specular_factor: 0.0,
-            ..MaterialDesc::default()
+pub mod peer;
+
+/// A second model placed in a benchmark scene, as [`BenchScene`] composes it.
+#[derive(Clone, Debug)]
+pub struct Insert {
+    pub path: PathBuf,
+    pub transform: DMat4,
+    /// The Lambertian albedo it is given (scans and test meshes bring no usable material).
+    pub white: f32,
+}
+
+/// A benchmark scene: a glTF file, and optionally a model from the shared assets placed
+/// in it. The peer benchmark passes the same description to the Mitsuba converter, so the
+/// composition has one source.
+#[derive(Clone, Debug)]
+pub struct BenchScene {
+    pub name: String,
+    pub base: PathBuf,
+    pub insert: Option<Insert>,
+}
+
+impl BenchScene {
+    /// Resolves a benchmark name: a scene in `scenes/` (e.g. `cornell-box`), a path, or a
+    /// composed scene:
+    ///
+    /// * `bunny-in-cornell`: the Stanford bunny scan (69,451 triangles) standing on the
+    ///   Cornell box's floor, white Lambertian;
+    /// * `spheres-in-cornell`: the 1M-triangle MetalRoughSpheresNoTextures (a 7×7 grid of
+    ///   spheres) standing upright in the Cornell box, facing the camera, white Lambertian.
+    pub fn resolve(name: &str, root: &Path, assets: &Path) -> BenchScene {
+        let cornell = root.join("scenes/cornell-box.gltf");
+        let composed = |path: PathBuf, transform: DMat4| BenchScene {
+            name: name.into(),
+            base: cornell.clone(),
+            insert: Some(Insert { path, transform, white: 0.75 }),
         };
-        room.append(&bunny, transform, Some(white));
-        return Ok(room);
+        let turn = DMat4::from_quat(DQuat::from_rotation_y(std::f64::consts::PI));
+        match name {
+            // The scan is ~0.155 units tall with its base at y = 0.033; scale it to 0.39 m
+            // and stand it in the middle of the floor.
+            "bunny-in-cornell" => {
+                let s = 2.5;
+                composed(
+                    assets.join("bvh/stanford-bunny.glb"),
+                    DMat4::from_translation(DVec3::new(0.28, -0.033 * s, 0.28))
+                        * turn
+                        * DMat4::from_scale(DVec3::splat(s)),
+                )
+            }
+            // The grid spans x −0.0009…0.0065, y −0.0010…0.0065, z −0.0033…0.0003 and faces
+            // +z; scaled by 54 (0.40 m wide), turned to face the camera, 5 cm above the floor.
+            "spheres-in-cornell" => composed(
+                assets.join("khronos/MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb"),
+                DMat4::from_translation(DVec3::new(0.428, 0.105, 0.22))
+                    * turn
+                    * DMat4::from_scale(DVec3::splat(54.0)),
+            ),
+            _ => {
+                let base = if Path::new(name).exists() {
+                    PathBuf::from(name)
+                } else {
+                    root.join("scenes").join(format!("{name}.gltf"))
+                };
+                BenchScene { name: name.into(), base, insert: None }
+            }
+        }
     }
-    let path = if Path::new(name).exists() {
-        PathBuf::from(name)
-    } else {
-        root.join("scenes").join(format!("{name}.gltf"))
-    };
-    Ok(crate::scene::load(&path)?.0)
+
+    pub fn load(&self) -> Result<Scene> {
+        let (mut scene, _) = crate::scene::load(&self.base)?;
+        if let Some(insert) = &self.insert {
+            let (model, _) = crate::scene::load(&insert.path)?;
+            let white = MaterialDesc {
+                name: format!("{} (white Lambertian)", insert.path.display()),
+                base_color: Vec3::splat(insert.white),
+                metallic: 0.0,
+                roughness: 1.0,
+                specular_factor: 0.0,
+                ..MaterialDesc::default()
+            };
+            scene.append(&model, insert.transform, Some(white));
+        }
+        Ok(scene)
+    }
+}
+
+/// Loads a benchmark scene by name (see [`BenchScene::resolve`]).
+pub fn load_bench_scene(name: &str, root: &Path, assets: &Path) -> Result<Scene> {
+    BenchScene::resolve(name, root, assets).load()
 }
 
 pub fn prepare(name: &str, scene: &Scene, aspect: f64, load_seconds: f64) -> Result<(FlatScene, PrepRow)> {

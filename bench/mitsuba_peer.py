@@ -1,0 +1,396 @@
+#!/usr/bin/env python3
+"""Renders a pathlight benchmark scene with Mitsuba 3, the peer of `pathlight bench --peer`.
+
+The glTF is read here, independently of pathlight's loader (so a loader bug shows up as a
+failed z-test rather than being copied into both renders), and converted to a Mitsuba 3
+scene: the same triangles and vertex normals, the same camera and box pixel filter,
+Mitsuba's own `path` integrator with its defaults (unlimited depth, roulette from depth 5)
+and its default `independent` sampler.
+
+Only the materials the benchmark scenes use are converted, each to the Mitsuba BSDF whose
+model is the same as pathlight's for that case; anything else is an error rather than an
+approximation:
+
+  * Lambertian (metallic 0, roughness 1, KHR_materials_specular factor 0) -> `diffuse`
+  * emissive (emissiveFactor x KHR_materials_emissive_strength)          -> `area` emitter
+  * smooth metal (metallic 1, roughness 0, base colour 1)                  -> `conductor`,
+    material `none` (reflectance 1: pathlight's Schlick Fresnel with F0 = 1 is 1 too)
+  * smooth solid glass (transmission 1, roughness 0, KHR_materials_volume,
+    no attenuation)                                                        -> `dielectric`
+
+What it does (all timings after a warm-up render that compiles Mitsuba's kernels):
+
+  1. the error series: independent renders at 1, 2, 4, ... spp, each timed, until one
+     takes longer than --time-limit; relMSE against --reference with the benchmark
+     protocol's formula (mean over pixels and channels of (x - ref)^2 / (ref^2 + 1e-2));
+  2. a converged image (--converged-spp spp in --batches independent batches), written as
+     an EXR with pathlight's channels (R, G, B and variance.R/G/B = the variance of the
+     mean from the batches) so `pathlight compare` can z-test it against pathlight.
+
+Needs `pip install mitsuba numpy`. The `llvm_ad_rgb` variant needs LLVM (Debian 12:
+`apt-get install libllvm19`); the library is found by itself or through DRJIT_LIBLLVM_PATH.
+"""
+
+import argparse
+import base64
+import csv
+import glob
+import json
+import math
+import os
+import struct
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+RELMSE_EPSILON = 1e-2  # the benchmark protocol's (and src/film/convergence.rs's) offset
+
+
+class SceneError(Exception):
+    pass
+
+
+# ---------------------------------------------------------------------------------------
+# glTF reading
+
+
+def read_gltf(path):
+    """(json, [buffer bytes]) of a .gltf or .glb."""
+    with open(path, "rb") as f:
+        data = f.read()
+    bin_chunk = None
+    if data[:4] == b"glTF":
+        _, _, length = struct.unpack_from("<III", data, 0)
+        offset = 12
+        doc = None
+        while offset < length:
+            chunk_length, chunk_type = struct.unpack_from("<II", data, offset)
+            chunk = data[offset + 8 : offset + 8 + chunk_length]
+            if chunk_type == 0x4E4F534A:
+                doc = json.loads(chunk.decode("utf-8"))
+            elif chunk_type == 0x004E4942:
+                bin_chunk = chunk
+            offset += 8 + chunk_length
+        if doc is None:
+            raise SceneError(f"{path}: a GLB without a JSON chunk")
+    else:
+        doc = json.loads(data.decode("utf-8"))
+    buffers = []
+    for i, b in enumerate(doc.get("buffers", [])):
+        uri = b.get("uri")
+        if uri is None:
+            if bin_chunk is None:
+                raise SceneError(f"{path}: buffer {i} has no uri and there is no GLB binary chunk")
+            buffers.append(bin_chunk)
+        elif uri.startswith("data:"):
+            buffers.append(base64.b64decode(uri.split(",", 1)[1]))
+        else:
+            with open(os.path.join(os.path.dirname(path), uri), "rb") as f:
+                buffers.append(f.read())
+    return doc, buffers
+
+
+COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
+DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+
+
+def read_accessor(doc, buffers, index):
+    a = doc["accessors"][index]
+    if "sparse" in a:
+        raise SceneError(f"accessor {index}: sparse accessors are not converted")
+    n = COMPONENTS[a["type"]]
+    dtype = np.dtype(DTYPES[a["componentType"]])
+    view = doc["bufferViews"][a["bufferView"]]
+    buf = buffers[view["buffer"]]
+    start = view.get("byteOffset", 0) + a.get("byteOffset", 0)
+    stride = view.get("byteStride", n * dtype.itemsize)
+    count = a["count"]
+    raw = np.frombuffer(buf, dtype=np.uint8, count=(count - 1) * stride + n * dtype.itemsize, offset=start)
+    rows = np.lib.stride_tricks.as_strided(raw, shape=(count, n * dtype.itemsize), strides=(stride, 1))
+    return np.ascontiguousarray(rows).view(dtype).reshape(count, n)
+
+
+def node_matrix(node):
+    if "matrix" in node:
+        return np.array(node["matrix"], dtype=np.float64).reshape(4, 4).T  # column-major
+    t = np.array(node.get("translation", [0, 0, 0]), dtype=np.float64)
+    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+    s = np.array(node.get("scale", [1, 1, 1]), dtype=np.float64)
+    r = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    m = np.eye(4)
+    m[:3, :3] = r * s
+    m[:3, 3] = t
+    return m
+
+
+def walk(doc):
+    """(node, world matrix) for every node of the default scene."""
+    scene = doc["scenes"][doc.get("scene", 0)]
+    stack = [(n, np.eye(4)) for n in scene["nodes"]]
+    while stack:
+        index, parent = stack.pop()
+        node = doc["nodes"][index]
+        world = parent @ node_matrix(node)
+        yield node, world
+        stack.extend((c, world) for c in node.get("children", []))
+
+
+# ---------------------------------------------------------------------------------------
+# Materials
+
+
+def mitsuba_material(material, white_override=None):
+    """(bsdf dict, emitter dict or None) for a glTF material, or SceneError."""
+    if white_override is not None:
+        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": [white_override] * 3}}, None
+    name = material.get("name", "(unnamed)")
+    pbr = material.get("pbrMetallicRoughness", {})
+    ext = material.get("extensions", {})
+    base = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
+    metallic = pbr.get("metallicFactor", 1.0)
+    roughness = pbr.get("roughnessFactor", 1.0)
+    if "baseColorTexture" in pbr or "metallicRoughnessTexture" in pbr or "normalTexture" in material:
+        raise SceneError(f"material '{name}': textures are not converted")
+    emissive = np.array(material.get("emissiveFactor", [0, 0, 0]), dtype=np.float64)
+    emissive = emissive * ext.get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+    emitter = {"type": "area", "radiance": {"type": "rgb", "value": emissive.tolist()}} if emissive.max() > 0 else None
+    transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
+    specular = ext.get("KHR_materials_specular", {}).get("specularFactor", 1.0)
+    ior = ext.get("KHR_materials_ior", {}).get("ior", 1.5)
+    if transmission == 1.0 and roughness == 0.0 and metallic == 0.0:
+        volume = ext.get("KHR_materials_volume")
+        if volume is None or volume.get("thicknessFactor", 0.0) <= 0.0:
+            raise SceneError(f"material '{name}': thin-walled glass is not converted")
+        if "attenuationDistance" in volume:
+            raise SceneError(f"material '{name}': volume attenuation is not converted")
+        return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0}, emitter
+    if transmission != 0.0:
+        raise SceneError(f"material '{name}': only smooth, clear, solid glass is converted")
+    if metallic == 1.0 and roughness == 0.0 and base == [1.0, 1.0, 1.0]:
+        return {"type": "conductor", "material": "none"}, emitter
+    if metallic == 0.0 and roughness == 1.0 and specular == 0.0:
+        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": base}}, emitter
+    raise SceneError(
+        f"material '{name}' (metallic {metallic}, roughness {roughness}, specular {specular}): "
+        "no Mitsuba BSDF with the same model; not converted"
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# Scene conversion
+
+
+def write_ply(path, positions, normals, faces):
+    with open(path, "wb") as f:
+        header = (
+            "ply\nformat binary_little_endian 1.0\n"
+            f"element vertex {len(positions)}\n"
+            "property float x\nproperty float y\nproperty float z\n"
+            + ("property float nx\nproperty float ny\nproperty float nz\n" if normals is not None else "")
+            + f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
+        )
+        f.write(header.encode("ascii"))
+        vertex = positions.astype("<f4")
+        if normals is not None:
+            vertex = np.hstack([vertex, normals.astype("<f4")])
+        f.write(vertex.tobytes())
+        face = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+        face["n"] = 3
+        face["i"] = faces
+        f.write(face.tobytes())
+
+
+def convert_meshes(doc, buffers, transform, white_override, workdir, tag, shapes):
+    for node, world in walk(doc):
+        if "mesh" not in node:
+            continue
+        world = transform @ world
+        linear = world[:3, :3]
+        normal_matrix = np.linalg.inv(linear).T
+        flip = np.linalg.det(linear) < 0  # glTF: a mirroring transform reverses the winding
+        for p, prim in enumerate(doc["meshes"][node["mesh"]]["primitives"]):
+            if prim.get("mode", 4) != 4:
+                raise SceneError(f"mesh {node['mesh']}: only triangle lists are converted")
+            positions = read_accessor(doc, buffers, prim["attributes"]["POSITION"]).astype(np.float64)
+            positions = positions @ linear.T + world[:3, 3]
+            normals = None
+            if "NORMAL" in prim["attributes"]:
+                normals = read_accessor(doc, buffers, prim["attributes"]["NORMAL"]).astype(np.float64) @ normal_matrix.T
+                normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+            if "indices" in prim:
+                faces = read_accessor(doc, buffers, prim["indices"]).reshape(-1, 3).astype(np.int64)
+            else:
+                faces = np.arange(len(positions)).reshape(-1, 3)
+            if flip:
+                faces = faces[:, ::-1]
+            material = doc["materials"][prim["material"]] if "material" in prim else {}
+            bsdf, emitter = mitsuba_material(material, white_override)
+            ply = os.path.join(workdir, f"{tag}-{node['mesh']}-{p}-{len(shapes)}.ply")
+            write_ply(ply, positions, normals, faces)
+            shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": normals is None}
+            if emitter is not None:
+                shape["emitter"] = emitter
+            shapes[f"shape{len(shapes)}"] = shape
+
+
+def find_camera(doc):
+    for node, world in walk(doc):
+        if "camera" in node:
+            camera = doc["cameras"][node["camera"]]
+            if camera.get("type") != "perspective":
+                raise SceneError("only perspective cameras are converted")
+            return camera["perspective"], world
+    raise SceneError("the scene has no camera")
+
+
+def build_scene(args, workdir):
+    import mitsuba as mi
+
+    doc, buffers = read_gltf(args.scene)
+    shapes = {}
+    convert_meshes(doc, buffers, np.eye(4), None, workdir, "scene", shapes)
+    if args.insert:
+        insert_doc, insert_buffers = read_gltf(args.insert)
+        values = [float(v) for v in args.matrix.split(",")]
+        if len(values) != 16:
+            raise SceneError(f"--matrix: 16 numbers expected, {len(values)} given")
+        m = np.array(values, dtype=np.float64).reshape(4, 4).T  # column-major
+        convert_meshes(insert_doc, insert_buffers, m, args.insert_white, workdir, "insert", shapes)
+    perspective, world = find_camera(doc)
+    origin = world[:3, 3]
+    forward = world[:3, :3] @ np.array([0.0, 0.0, -1.0])
+    up = world[:3, :3] @ np.array([0.0, 1.0, 0.0])
+    sensor = {
+        "type": "perspective",
+        "fov_axis": "y",
+        "fov": math.degrees(perspective["yfov"]),
+        "near_clip": perspective.get("znear", 0.01),
+        "to_world": mi.ScalarTransform4f().look_at(
+            origin=origin.tolist(), target=(origin + forward).tolist(), up=up.tolist()
+        ),
+        "sampler": {"type": "independent"},
+        "film": {
+            "type": "hdrfilm",
+            "width": args.width,
+            "height": args.height,
+            "rfilter": {"type": "box"},
+            "pixel_format": "rgb",
+        },
+    }
+    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": -1}, "sensor": sensor}
+    scene.update(shapes)
+    return mi.load_dict(scene)
+
+
+# ---------------------------------------------------------------------------------------
+# Rendering
+
+
+def read_reference(path):
+    import mitsuba as mi
+
+    # Mitsuba groups an EXR's channels into layers; R, G, B form the unnamed root layer.
+    layers = dict(mi.Bitmap(path).split())
+    if "<root>" not in layers:
+        raise SceneError(f"{path}: no R, G, B channels")
+    return np.array(layers["<root>"], dtype=np.float64)[..., :3]
+
+
+def errors(image, reference):
+    d = image.astype(np.float64) - reference
+    return float(np.sqrt(np.mean(d * d))), float(np.mean(d * d / (reference * reference + RELMSE_EPSILON)))
+
+
+def render(scene, spp, seed):
+    """One render, timed to the finished image (Dr.Jit evaluates lazily: the numpy copy
+    forces it)."""
+    import mitsuba as mi
+
+    start = time.perf_counter()
+    image = np.array(mi.render(scene, spp=spp, seed=seed))
+    return image, time.perf_counter() - start
+
+
+def setup_variant(variant):
+    if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
+        found = sorted(glob.glob("/usr/lib/x86_64-linux-gnu/libLLVM.so.*") + glob.glob("/usr/lib/llvm-*/lib/libLLVM*.so*"))
+        if found:
+            os.environ["DRJIT_LIBLLVM_PATH"] = found[-1]
+    import mitsuba as mi
+
+    try:
+        mi.set_variant(variant)
+    except Exception as e:  # Mitsuba reports a missing LLVM as a generic error
+        raise SceneError(f"Mitsuba variant {variant} is unavailable ({e}); install libllvm19 or use --variant scalar_rgb")
+    return mi
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("scene")
+    p.add_argument("--insert", help="a second glTF placed in the scene (e.g. the bunny)")
+    p.add_argument("--matrix", help="its transform: 16 comma-separated numbers, column-major")
+    p.add_argument("--insert-white", type=float, help="give the insert a Lambertian of this albedo")
+    p.add_argument("--width", type=int, default=256)
+    p.add_argument("--height", type=int, default=256)
+    p.add_argument("--variant", default="llvm_ad_rgb")
+    p.add_argument("--reference", required=True, help="reference EXR (R, G, B)")
+    p.add_argument("--time-limit", type=float, default=30.0, help="stop the series after a render this long")
+    p.add_argument("--max-spp", type=int, default=65536)
+    p.add_argument("--converged-spp", type=int, default=1024)
+    p.add_argument("--batches", type=int, default=16)
+    p.add_argument("--log", required=True, help="CSV: spp, seconds, rmse, relmse")
+    p.add_argument("--converged", required=True, help="EXR written with mean and variance")
+    args = p.parse_args()
+
+    try:
+        mi = setup_variant(args.variant)
+        with tempfile.TemporaryDirectory() as workdir:
+            scene = build_scene(args, workdir)
+            reference = read_reference(args.reference)
+            if reference.shape[:2] != (args.height, args.width):
+                raise SceneError(f"{args.reference}: {reference.shape[1]}x{reference.shape[0]}, not {args.width}x{args.height}")
+            # Warm-up: Dr.Jit traces and compiles the kernel once per scene (and caches it).
+            render(scene, 1, 999_999)
+            rows = []
+            spp = 1
+            while spp <= args.max_spp:
+                image, seconds = render(scene, spp, spp)
+                rmse, relmse = errors(image, reference)
+                rows.append((spp, seconds, rmse, relmse))
+                print(f"mitsuba {spp:>6} spp {seconds:>9.3f} s  RMSE {rmse:.5f}  relMSE {relmse:.5f}", file=sys.stderr, flush=True)
+                if seconds >= args.time_limit:
+                    break
+                spp *= 2
+            with open(args.log, "w", newline="") as f:
+                w = csv.writer(f)
+                w.writerow(["spp", "seconds", "rmse", "relmse"])
+                w.writerows(rows)
+
+            per_batch = max(1, args.converged_spp // args.batches)
+            batches = [render(scene, per_batch, 1_000_000 + b)[0].astype(np.float64) for b in range(args.batches)]
+            stack = np.stack(batches)
+            mean = stack.mean(axis=0)
+            variance = stack.var(axis=0, ddof=1) / len(batches)
+            data = np.concatenate([mean, variance], axis=-1).astype(np.float32)
+            bitmap = mi.Bitmap(
+                data,
+                pixel_format=mi.Bitmap.PixelFormat.MultiChannel,
+                channel_names=["R", "G", "B", "variance.R", "variance.G", "variance.B"],
+            )
+            bitmap.write(args.converged)
+    except SceneError as e:
+        print(f"mitsuba_peer.py: {args.scene}: {e}", file=sys.stderr)
+        sys.exit(2)
+
+
+if __name__ == "__main__":
+    main()

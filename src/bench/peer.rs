@@ -1,0 +1,405 @@
+//! `pathlight bench --peer mitsuba`: speed against error next to a peer renderer, in the
+//! same run on the same machine.
+//!
+//! For each scene:
+//!
+//! 1. a reference: `OUT/<scene>/reference.exr`, rendered by pathlight at
+//!    `--reference-spp` if it is not there yet (on a real GPU that takes seconds; the file
+//!    can be rendered elsewhere with `--references-only` and copied in);
+//! 2. pathlight's error series on each backend: one progressive render, after a one-sample
+//!    warm-up that is thrown away, with relMSE against the reference at 1, 2, 4, … spp, until
+//!    `--peer-seconds` have passed;
+//! 3. the peer's series and a converged image with per-pixel variance, by
+//!    `bench/mitsuba_peer.py` (its own glTF reader, Mitsuba 3's `path` integrator);
+//! 4. a z-test of the peer's converged image against the reference (do the two renderers
+//!    converge to the same image?);
+//! 5. time to equal error and error at equal time, read off the series by log–log
+//!    interpolation; the series go to CSV files for `bench/plot_peer.py`.
+//!
+//! relMSE is the benchmark protocol's (see [`crate::film::error_against`]); the peer's script
+//! computes the same formula.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::BenchScene;
+use crate::cpu::CpuBackend;
+use crate::error::{Error, Result};
+use crate::film::{
+    compare_images, error_against, CompareOptions, CompareReport, LinearImage, RenderMetadata,
+};
+use crate::gpu::{GpuBackend, GpuContext};
+use crate::scene::{FlatScene, ViewSettings};
+use crate::{render_progressive_with, Backend, RenderSettings};
+
+/// How the peer benchmark runs.
+#[derive(Clone)]
+pub struct PeerOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Each renderer's series stops after the checkpoint that passes this many seconds.
+    pub seconds: f64,
+    /// Samples per pixel of a reference rendered here.
+    pub reference_spp: u32,
+    /// Where references, series and the peer's images go (`OUT/<scene>/…`).
+    pub out: PathBuf,
+    /// The Python interpreter that has `mitsuba` installed.
+    pub python: String,
+    /// The converter script.
+    pub script: PathBuf,
+    /// Mitsuba variant (`llvm_ad_rgb`; `scalar_rgb` where LLVM is missing).
+    pub variant: String,
+    /// Samples per pixel of the peer's converged image (for the z-test).
+    pub converged_spp: u32,
+    /// Run the peer (false: pathlight's series only, no comparison).
+    pub run_peer: bool,
+    pub cpu: bool,
+    pub gpu: Option<Arc<GpuContext>>,
+}
+
+/// One renderer's error against time: (spp, seconds, relMSE) at each checkpoint.
+#[derive(Clone, Debug)]
+pub struct Series {
+    pub label: String,
+    pub points: Vec<(u32, f64, f64)>,
+}
+
+impl Series {
+    /// Seconds to reach relMSE `error`, interpolated log–log between the checkpoints around
+    /// it (relMSE falls as 1/t for an unbiased renderer, a line on log–log axes); `None`
+    /// if the series never gets there.
+    pub fn time_to_error(&self, error: f64) -> Option<f64> {
+        let p = &self.points;
+        let i = p.iter().position(|&(_, _, e)| e <= error)?;
+        if i == 0 {
+            // Reached at the first checkpoint: scale its time by the 1/t law.
+            let (_, t, e) = p[0];
+            return Some(t * e / error);
+        }
+        let ((_, t0, e0), (_, t1, e1)) = (p[i - 1], p[i]);
+        Some(log_lerp(e0, t0, e1, t1, error))
+    }
+
+    /// relMSE after `seconds`, interpolated log–log; `None` outside the series.
+    pub fn error_at_time(&self, seconds: f64) -> Option<f64> {
+        let p = &self.points;
+        let i = p.iter().position(|&(_, t, _)| t >= seconds)?;
+        if i == 0 {
+            return None;
+        }
+        let ((_, t0, e0), (_, t1, e1)) = (p[i - 1], p[i]);
+        Some(log_lerp(t0, e0, t1, e1, seconds))
+    }
+
+    /// The last checkpoint's relMSE and seconds.
+    pub fn last(&self) -> Option<(f64, f64)> {
+        self.points.last().map(|&(_, t, e)| (e, t))
+    }
+
+    pub fn csv(&self) -> String {
+        let mut s = String::from("spp,seconds,relmse\n");
+        for (spp, t, e) in &self.points {
+            s += &format!("{spp},{t:.6},{e:.8e}\n");
+        }
+        s
+    }
+}
+
+/// y at x on the line through (x0, y0) and (x1, y1) in log–log coordinates.
+fn log_lerp(x0: f64, y0: f64, x1: f64, y1: f64, x: f64) -> f64 {
+    if x0 == x1 {
+        return y1;
+    }
+    let f = (x.ln() - x0.ln()) / (x1.ln() - x0.ln());
+    (y0.ln() + f * (y1.ln() - y0.ln())).exp()
+}
+
+/// Everything measured on one scene.
+pub struct PeerResult {
+    pub scene: String,
+    pub reference_note: String,
+    pub pathlight: Vec<Series>,
+    /// The peer's series (`None` with `run_peer` off).
+    pub peer: Option<Series>,
+    /// The peer's converged image against the reference.
+    pub agreement: Option<CompareReport>,
+}
+
+impl PeerResult {
+    /// The lowest relMSE every series reached: where time to equal error is read.
+    pub fn common_error(&self) -> Option<f64> {
+        self.pathlight
+            .iter()
+            .chain(&self.peer)
+            .map(|s| s.last().map(|l| l.0))
+            .try_fold(0.0f64, |m, e| e.map(|e| m.max(e)))
+    }
+
+    /// The shortest series' length: where error at equal time is read.
+    pub fn common_time(&self) -> Option<f64> {
+        self.pathlight
+            .iter()
+            .chain(&self.peer)
+            .map(|s| s.last().map(|l| l.1))
+            .try_fold(f64::INFINITY, |m, t| t.map(|t| m.min(t)))
+    }
+}
+
+/// The fastest backend present for a reference: a hardware GPU, else the CPU.
+fn reference_backend(
+    flat: &Arc<FlatScene>,
+    settings: &RenderSettings,
+    gpu: Option<&Arc<GpuContext>>,
+) -> Result<Box<dyn Backend>> {
+    Ok(match gpu {
+        Some(ctx) if ctx.info.device_type != wgpu::DeviceType::Cpu => {
+            Box::new(GpuBackend::new(ctx.clone(), flat, settings)?)
+        }
+        _ => Box::new(CpuBackend::shared(flat.clone(), settings)),
+    })
+}
+
+/// Renders (or reuses) `OUT/<scene>/reference.exr`.
+pub fn reference(
+    scene: &BenchScene,
+    flat: &Arc<FlatScene>,
+    options: &PeerOptions,
+) -> Result<(LinearImage, String)> {
+    let dir = options.out.join(&scene.name);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let path = dir.join("reference.exr");
+    if path.exists() {
+        let image = LinearImage::read(&path)?;
+        if (image.width, image.height) == (options.width as usize, options.height as usize) {
+            let spp = crate::film::read_exr(&path)?
+                .attributes
+                .get("pathlight.spp")
+                .cloned()
+                .unwrap_or_else(|| "?".into());
+            let backend = crate::film::read_exr(&path)?
+                .attributes
+                .get("pathlight.backend")
+                .cloned()
+                .unwrap_or_else(|| "?".into());
+            return Ok((image, format!("{} ({spp} spp, {backend}, reused)", path.display())));
+        }
+    }
+    // Its own seed, so the reference is independent of every timed render.
+    let settings = RenderSettings {
+        width: options.width,
+        height: options.height,
+        spp: options.reference_spp,
+        seed: 0x5EED_0001,
+        ..RenderSettings::default()
+    };
+    let mut backend = reference_backend(flat, &settings, options.gpu.as_ref())?;
+    let start = Instant::now();
+    eprintln!("{}: rendering the reference, {} spp on {}", scene.name, settings.spp, backend.name());
+    render_progressive_with(backend.as_mut(), settings.spp, &AtomicBool::new(false), |_, _, _| Ok(false))?;
+    let seconds = start.elapsed().as_secs_f64();
+    let film = backend.film()?;
+    let meta = RenderMetadata {
+        scene: scene.name.clone(),
+        backend: backend.name(),
+        spp: settings.spp,
+        seed: settings.seed,
+        max_depth: None,
+        render_seconds: seconds,
+        rejected_samples: 0,
+    };
+    crate::film::write_exr(&film, &meta, &path)?;
+    Ok((
+        LinearImage::from_film(&film),
+        format!("{} ({} spp, {}, {seconds:.0} s)", path.display(), settings.spp, backend.name()),
+    ))
+}
+
+/// One progressive pathlight render against the reference until `seconds` have passed.
+fn pathlight_series(backend: &mut dyn Backend, reference: &LinearImage, seconds: f64) -> Result<Series> {
+    // Warm-up: the first pass builds per-device state (the GPU's first submits probe the
+    // dispatch size); it is not part of the timed render.
+    backend.render(0, 1)?;
+    backend.reset()?;
+    let mut points = Vec::new();
+    render_progressive_with(backend, u32::MAX / 2, &AtomicBool::new(false), |b, done, t| {
+        if !done.is_power_of_two() {
+            return Ok(false);
+        }
+        let image = LinearImage::from_film(&b.film()?);
+        let (_, relmse) = error_against(&image, reference);
+        eprintln!("{:>24} {done:>6} spp {t:>9.3} s  relMSE {relmse:.5}", b.name());
+        points.push((done, t, relmse));
+        Ok(t >= seconds)
+    })?;
+    Ok(Series { label: format!("pathlight {}", backend.name()), points })
+}
+
+/// Runs the peer's script on `scene` and reads back its series and converged image.
+fn peer_series(scene: &BenchScene, options: &PeerOptions) -> Result<(Series, LinearImage)> {
+    let dir = options.out.join(&scene.name);
+    let log = dir.join("mitsuba.csv");
+    let converged = dir.join("mitsuba-converged.exr");
+    let mut command = Command::new(&options.python);
+    command
+        .arg(&options.script)
+        .arg(&scene.base)
+        .args(["--width", &options.width.to_string(), "--height", &options.height.to_string()])
+        .args(["--variant", &options.variant])
+        .arg("--reference")
+        .arg(dir.join("reference.exr"))
+        .args(["--time-limit", &options.seconds.to_string()])
+        .args(["--converged-spp", &options.converged_spp.to_string()])
+        .arg("--log")
+        .arg(&log)
+        .arg("--converged")
+        .arg(&converged);
+    if let Some(insert) = &scene.insert {
+        let matrix: Vec<String> = insert.transform.to_cols_array().iter().map(|v| format!("{v:e}")).collect();
+        command.arg("--insert").arg(&insert.path).arg(format!("--matrix={}", matrix.join(",")));
+        command.args(["--insert-white", &insert.white.to_string()]);
+    }
+    let status = command.status().map_err(|e| {
+        Error::Settings(format!("could not run {} {}: {e}", options.python, options.script.display()))
+    })?;
+    if !status.success() {
+        return Err(Error::Settings(format!(
+            "{}: the peer's script failed ({status})",
+            options.script.display()
+        )));
+    }
+    let text = std::fs::read_to_string(&log).map_err(|e| Error::io(&log, e))?;
+    let mut points = Vec::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let parse = |i: usize| -> Result<f64> {
+            f.get(i)
+                .and_then(|v| v.trim().parse::<f64>().ok())
+                .ok_or_else(|| Error::Settings(format!("{}: bad line '{line}'", log.display())))
+        };
+        points.push((parse(0)? as u32, parse(1)?, parse(3)?));
+    }
+    Ok((Series { label: format!("Mitsuba 3 {}", options.variant), points }, LinearImage::read(&converged)?))
+}
+
+/// Measures one scene: reference, pathlight's series on each backend, the peer's.
+pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult> {
+    let flat = Arc::new(FlatScene::build(
+        &scene.load()?,
+        &ViewSettings { camera: None, aspect: options.width as f64 / options.height as f64 },
+    )?);
+    let (reference, reference_note) = reference(scene, &flat, options)?;
+    let settings = RenderSettings {
+        width: options.width,
+        height: options.height,
+        spp: 1 << 20,
+        ..RenderSettings::default()
+    };
+    let dir = options.out.join(&scene.name);
+    let mut pathlight = Vec::new();
+    let write = |name: &str, series: &Series| {
+        let path = dir.join(name);
+        std::fs::write(&path, series.csv()).map_err(|e| Error::io(&path, e))
+    };
+    if options.cpu {
+        let mut backend = CpuBackend::shared(flat.clone(), &settings);
+        let series = pathlight_series(&mut backend, &reference, options.seconds)?;
+        write("pathlight-cpu.csv", &series)?;
+        pathlight.push(series);
+    }
+    if let Some(ctx) = &options.gpu {
+        let mut backend = GpuBackend::new(ctx.clone(), &flat, &settings)?;
+        let series = pathlight_series(&mut backend, &reference, options.seconds)?;
+        write("pathlight-gpu.csv", &series)?;
+        pathlight.push(series);
+    }
+    let (peer, agreement) = if options.run_peer {
+        let (peer, converged) = peer_series(scene, options)?;
+        (Some(peer), Some(compare_images(&converged, &reference, &CompareOptions::default())?))
+    } else {
+        (None, None)
+    };
+    Ok(PeerResult { scene: scene.name.clone(), reference_note, pathlight, peer, agreement })
+}
+
+/// The results as Markdown: one row per pathlight backend and scene.
+pub fn markdown(results: &[PeerResult]) -> String {
+    let mut s = String::new();
+    s += "| scene | same image as the peer? | pathlight backend | relMSE compared | pathlight s | Mitsuba s | speed vs Mitsuba (time to equal error) | at equal time | relMSE pathlight | relMSE Mitsuba |\n";
+    s += "|---|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    for r in results {
+        let same = match &r.agreement {
+            Some(a) if a.same() => "yes (z-test passes)".to_string(),
+            Some(a) => format!("**no**: {}", a.failures.join("; ")),
+            None => "(peer not run)".into(),
+        };
+        let error = r.common_error();
+        let time = r.common_time();
+        for p in &r.pathlight {
+            let t_pl = error.and_then(|e| p.time_to_error(e));
+            let t_mi = error.zip(r.peer.as_ref()).and_then(|(e, peer)| peer.time_to_error(e));
+            let e_pl = time.and_then(|t| p.error_at_time(t));
+            let e_mi = time.zip(r.peer.as_ref()).and_then(|(t, peer)| peer.error_at_time(t));
+            let f = |v: Option<f64>, d: usize| v.map_or("-".into(), |v| format!("{v:.d$}"));
+            let g = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3e}"));
+            let ratio = match (t_pl, t_mi) {
+                (Some(a), Some(b)) => format!("{:.2}×", b / a),
+                _ => "-".into(),
+            };
+            s += &format!(
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                r.scene,
+                same,
+                p.label.trim_start_matches("pathlight "),
+                g(error),
+                f(t_pl, 2),
+                f(t_mi, 2),
+                ratio,
+                time.map_or("-".into(), |t| format!("{t:.1} s")),
+                g(e_pl),
+                g(e_mi),
+            );
+        }
+    }
+    s
+}
+
+/// Runs `bench/plot_peer.py` over the CSV files (a missing matplotlib is a warning).
+pub fn plot(options: &PeerOptions, scenes: &[String]) {
+    let script = options.script.with_file_name("plot_peer.py");
+    let status = Command::new(&options.python).arg(&script).arg(&options.out).args(scenes).status();
+    match status {
+        Ok(s) if s.success() => {}
+        Ok(s) => eprintln!("warning: {} failed ({s}); no plots", script.display()),
+        Err(e) => eprintln!("warning: could not run {}: {e}; no plots", script.display()),
+    }
+}
+
+/// Where the converter script is: beside the binary's source tree (`bench/`).
+pub fn default_script(root: &Path) -> PathBuf {
+    root.join("bench/mitsuba_peer.py")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn series(points: &[(u32, f64, f64)]) -> Series {
+        Series { label: "s".into(), points: points.to_vec() }
+    }
+
+    #[test]
+    fn time_to_error_follows_the_one_over_t_law() {
+        // relMSE = 0.1 / t exactly: log–log interpolation is exact.
+        let s = series(&[(1, 1.0, 0.1), (2, 2.0, 0.05), (4, 4.0, 0.025)]);
+        assert!((s.time_to_error(0.04).unwrap() - 2.5).abs() < 1e-12);
+        assert!((s.error_at_time(3.0).unwrap() - 0.1 / 3.0).abs() < 1e-12);
+        // Reached at once: scaled back along 1/t.
+        assert!((s.time_to_error(0.2).unwrap() - 0.5).abs() < 1e-12);
+        assert_eq!(s.time_to_error(0.01), None);
+        assert_eq!(s.error_at_time(5.0), None);
+        assert_eq!(s.error_at_time(0.5), None);
+    }
+}
