@@ -76,7 +76,9 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
             Primitive { bounds, centroid: bounds.centroid(), index: i as u32 }
         })
         .collect();
-    let root = build_recursive(&mut prims, 0, 1);
+    let bounds = bounds_of(&prims);
+    let centroid_bounds = centroid_bounds_of(&prims);
+    let root = build_recursive(&mut prims, Split { bounds, centroid_bounds }, 0, 1);
     let order: Vec<u32> = prims.iter().map(|p| p.index).collect();
     let mut nodes = Vec::with_capacity(2 * triangles.len());
     let mut stats = BvhStats { triangles: triangles.len(), ..Default::default() };
@@ -91,28 +93,50 @@ fn bounds_of(prims: &[Primitive]) -> Aabb {
     prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds))
 }
 
-fn build_recursive(prims: &mut [Primitive], offset: usize, depth: usize) -> BuildNode {
-    let bounds = bounds_of(prims);
+fn centroid_bounds_of(prims: &[Primitive]) -> Aabb {
+    prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid))
+}
+
+/// A node's primitives' bounds and their centroids' bounds. The parent's split computes
+/// both for its children while it partitions, so no node makes its own passes for them
+/// (they were two of the four passes per node).
+#[derive(Clone, Copy)]
+struct Split {
+    bounds: Aabb,
+    centroid_bounds: Aabb,
+}
+
+/// Both children's [`Split`]s, from the primitives either side of `mid`.
+fn splits_of(prims: &[Primitive], mid: usize) -> (Split, Split) {
+    let (l, r) = prims.split_at(mid);
+    (
+        Split { bounds: bounds_of(l), centroid_bounds: centroid_bounds_of(l) },
+        Split { bounds: bounds_of(r), centroid_bounds: centroid_bounds_of(r) },
+    )
+}
+
+fn build_recursive(prims: &mut [Primitive], node: Split, offset: usize, depth: usize) -> BuildNode {
+    let Split { bounds, centroid_bounds } = node;
     let n = prims.len();
     if n == 1 {
         return BuildNode::Leaf { bounds, first: offset, count: 1 };
     }
-    let centroid_bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid));
     let axis = centroid_bounds.max_extent_axis();
     let (c_min, c_max) = (centroid_bounds.min[axis], centroid_bounds.max[axis]);
 
-    let mid = if c_max <= c_min {
+    let (mid, (left_split, right_split)) = if c_max <= c_min {
         // All centroids coincide: no split separates them. Keep small sets as a leaf and
         // halve large ones arbitrarily so leaves stay bounded.
         if n <= MAX_LEAF_TRIANGLES {
             return BuildNode::Leaf { bounds, first: offset, count: n };
         }
-        n / 2
+        (n / 2, splits_of(prims, n / 2))
     } else if depth >= MEDIAN_SPLIT_DEPTH {
-        median_split(prims, axis)
+        let mid = median_split(prims, axis);
+        (mid, splits_of(prims, mid))
     } else {
         match sah_split(prims, &bounds, axis, c_min, c_max) {
-            Some(mid) => mid,
+            Some(split) => split,
             None => return BuildNode::Leaf { bounds, first: offset, count: n },
         }
     };
@@ -120,11 +144,14 @@ fn build_recursive(prims: &mut [Primitive], offset: usize, depth: usize) -> Buil
     let (left, right) = prims.split_at_mut(mid);
     let (l, r) = if n > PARALLEL_THRESHOLD {
         rayon::join(
-            || build_recursive(left, offset, depth + 1),
-            || build_recursive(right, offset + mid, depth + 1),
+            || build_recursive(left, left_split, offset, depth + 1),
+            || build_recursive(right, right_split, offset + mid, depth + 1),
         )
     } else {
-        (build_recursive(left, offset, depth + 1), build_recursive(right, offset + mid, depth + 1))
+        (
+            build_recursive(left, left_split, offset, depth + 1),
+            build_recursive(right, right_split, offset + mid, depth + 1),
+        )
     };
     BuildNode::Interior { bounds, axis, children: Box::new([l, r]) }
 }
@@ -135,9 +162,15 @@ fn median_split(prims: &mut [Primitive], axis: usize) -> usize {
     mid
 }
 
-/// Partitions `prims` at the best binned-SAH plane and returns the split index, or `None`
-/// when a leaf is cheaper (and allowed).
-fn sah_split(prims: &mut [Primitive], bounds: &Aabb, axis: usize, c_min: f32, c_max: f32) -> Option<usize> {
+/// Partitions `prims` at the best binned-SAH plane and returns the split index with both
+/// children's [`Split`]s, or `None` when a leaf is cheaper (and allowed).
+fn sah_split(
+    prims: &mut [Primitive],
+    bounds: &Aabb,
+    axis: usize,
+    c_min: f32,
+    c_max: f32,
+) -> Option<(usize, (Split, Split))> {
     let n = prims.len();
     let scale = BIN_COUNT as f32 / (c_max - c_min);
     let bin_of = |c: f32| (((c - c_min) * scale) as usize).min(BIN_COUNT - 1);
@@ -175,25 +208,44 @@ fn sah_split(prims: &mut [Primitive], bounds: &Aabb, axis: usize, c_min: f32, c_
     let area = bounds.surface_area().max(f32::MIN_POSITIVE);
     let split_cost = TRAVERSAL_COST + best.0 / area;
     let leaf_cost = n as f32;
+    let median = |prims: &mut [Primitive]| {
+        let mid = median_split(prims, axis);
+        (mid, splits_of(prims, mid))
+    };
     if best.0.is_infinite() {
         // Every centroid fell into one bin (a tiny spread at large magnitude): split evenly.
-        return Some(median_split(prims, axis));
+        return Some(median(prims));
     }
     if n <= MAX_LEAF_TRIANGLES && leaf_cost <= split_cost {
         return None;
     }
+    // Partition, growing each side's centroid bounds on the way; each side's bounds are
+    // the union of its bins.
     let split_bin = best.1;
     let mut mid = 0;
+    let (mut left_centroids, mut right_centroids) = (Aabb::EMPTY, Aabb::EMPTY);
     for i in 0..n {
-        if bin_of(prims[i].centroid[axis]) <= split_bin {
+        let c = prims[i].centroid;
+        if bin_of(c[axis]) <= split_bin {
             prims.swap(i, mid);
             mid += 1;
+            left_centroids = left_centroids.grow(c);
+        } else {
+            right_centroids = right_centroids.grow(c);
         }
     }
     if mid == 0 || mid == n {
-        return Some(median_split(prims, axis));
+        return Some(median(prims));
     }
-    Some(mid)
+    let left_bounds = bin_bounds[..=split_bin].iter().fold(Aabb::EMPTY, |b, &x| b.union(x));
+    let right_bounds = bin_bounds[split_bin + 1..].iter().fold(Aabb::EMPTY, |b, &x| b.union(x));
+    Some((
+        mid,
+        (
+            Split { bounds: left_bounds, centroid_bounds: left_centroids },
+            Split { bounds: right_bounds, centroid_bounds: right_centroids },
+        ),
+    ))
 }
 
 /// Appends `node` and its subtree depth-first; returns the node's index.
