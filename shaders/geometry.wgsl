@@ -156,6 +156,16 @@ fn ray_box_precomp(ray: Ray) -> RayBoxPrecomp {
 
 // Ize 2013 / pbrt-v4 `Bounds3::IntersectP`; see src/geometry/bounds.rs for the margins.
 fn intersect_box(pre: RayBoxPrecomp, t_max: f32, bmin: vec3<f32>, bmax: vec3<f32>) -> bool {
+    return box_entry(pre, t_max, bmin, bmax) >= 0.0;
+}
+
+// Twin of `entry_within`.
+fn entry_within(enter: f32, t_max: f32) -> bool {
+    return enter * (1.0 - 4.0 * gamma(3)) <= t_max;
+}
+
+// Twin of `box_entry`: the entry distance (≥ 0) of an overlap, or −1 for a miss.
+fn box_entry(pre: RayBoxPrecomp, t_max: f32, bmin: vec3<f32>, bmax: vec3<f32>) -> f32 {
     let t0 = (bmin - pre.origin) * pre.inv_direction;
     let t1 = (bmax - pre.origin) * pre.inv_direction;
     var t_near = min(t0, t1);
@@ -165,7 +175,7 @@ fn intersect_box(pre: RayBoxPrecomp, t_max: f32, bmin: vec3<f32>, bmax: vec3<f32
     t_far = select(t_far, select(vec3<f32>(-F32_MAX), vec3<f32>(F32_MAX), inside), pre.parallel);
     let enter = max(max(max(t_near.x, t_near.y), t_near.z), 0.0);
     let exit = min(min(t_far.x, t_far.y), t_far.z) * (1.0 + 2.0 * gamma(3));
-    return enter <= exit && enter * (1.0 - 4.0 * gamma(3)) <= t_max;
+    return select(-1.0, enter, enter <= exit && entry_within(enter, t_max));
 }
 
 struct TriangleHit {
@@ -195,26 +205,41 @@ fn permute(v: vec3<f32>, x: u32, y: u32, z: u32) -> vec3<f32> {
     return vec3<f32>(v[x], v[y], v[z]);
 }
 
-// Woop, Benthin & Wald 2013 with pbrt-v4's conservative t test; see
-// src/geometry/triangle.rs.
-fn intersect_triangle(ray: Ray, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> TriangleHit {
-    let c = cross(p2 - p0, p1 - p0);
-    if (dot(c, c) == 0.0) {
-        return no_triangle_hit();
-    }
+// Twin of `RayTrianglePrecomp`: the permutation and shear of the watertight test, once per
+// ray.
+struct RayTrianglePrecomp {
+    origin: vec3<f32>,
+    k: vec3<u32>,
+    shear: vec3<f32>,
+    valid: bool,
+}
+
+fn ray_triangle_precomp(ray: Ray) -> RayTrianglePrecomp {
     let kz = max_dimension(abs(ray.direction));
     let kx = select(kz + 1u, 0u, kz == 2u);
     let ky = select(kx + 1u, 0u, kx == 2u);
     let d = permute(ray.direction, kx, ky, kz);
-    if (d.z == 0.0) {
+    return RayTrianglePrecomp(ray.origin, vec3<u32>(kx, ky, kz), vec3<f32>(-d.x / d.z, -d.y / d.z, 1.0 / d.z), d.z != 0.0);
+}
+
+// Woop, Benthin & Wald 2013 with pbrt-v4's conservative t test; see
+// src/geometry/triangle.rs.
+fn intersect_triangle(ray: Ray, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> TriangleHit {
+    return intersect_triangle_precomp(ray_triangle_precomp(ray), ray.t_max, p0, p1, p2);
+}
+
+fn intersect_triangle_precomp(pre: RayTrianglePrecomp, t_max: f32, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> TriangleHit {
+    let c = cross(p2 - p0, p1 - p0);
+    if (!pre.valid || dot(c, c) == 0.0) {
         return no_triangle_hit();
     }
-    var p0t = permute(p0 - ray.origin, kx, ky, kz);
-    var p1t = permute(p1 - ray.origin, kx, ky, kz);
-    var p2t = permute(p2 - ray.origin, kx, ky, kz);
-    let sx = -d.x / d.z;
-    let sy = -d.y / d.z;
-    let sz = 1.0 / d.z;
+    let k = pre.k;
+    var p0t = permute(p0 - pre.origin, k.x, k.y, k.z);
+    var p1t = permute(p1 - pre.origin, k.x, k.y, k.z);
+    var p2t = permute(p2 - pre.origin, k.x, k.y, k.z);
+    let sx = pre.shear.x;
+    let sy = pre.shear.y;
+    let sz = pre.shear.z;
     p0t.x += sx * p0t.z;
     p0t.y += sy * p0t.z;
     p1t.x += sx * p1t.z;
@@ -240,10 +265,10 @@ fn intersect_triangle(ray: Ray, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> 
     p1t.z *= sz;
     p2t.z *= sz;
     let t_scaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
-    if (det < 0.0 && (t_scaled >= 0.0 || t_scaled < ray.t_max * det)) {
+    if (det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max * det)) {
         return no_triangle_hit();
     }
-    if (det > 0.0 && (t_scaled <= 0.0 || t_scaled > ray.t_max * det)) {
+    if (det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max * det)) {
         return no_triangle_hit();
     }
     let inv_det = 1.0 / det;

@@ -2,7 +2,9 @@
 
 use glam::Vec3;
 
-use crate::geometry::{intersect_box, intersect_triangle, Ray, RayBoxPrecomp, TriangleHit};
+use crate::geometry::{
+    box_entry, entry_within, intersect_triangle_precomp, Ray, RayBoxPrecomp, RayTrianglePrecomp, TriangleHit,
+};
 use crate::scene::layout::{BvhNode, Triangle};
 
 use super::build::MAX_DEPTH;
@@ -22,41 +24,68 @@ fn vertices(t: &Triangle) -> (Vec3, Vec3, Vec3) {
     (Vec3::from(t.p0), Vec3::from(t.p1), Vec3::from(t.p2))
 }
 
-/// Visits the leaves the ray may touch, in front-to-back order; `visit` tests a leaf's
-/// triangles, may shorten `ray.t_max`, and returns `true` to stop.
+/// Visits the leaves the ray may touch, nearer first; `visit` tests a leaf's triangles, may
+/// shorten `ray.t_max`, and returns `true` to stop.
+///
+/// An interior node tests both children's boxes, descends into the nearer overlap and
+/// defers the other with its entry distance; a deferred child whose entry lies beyond the
+/// nearest hit found meanwhile is dropped without loading it again (pbrt-v4 §7.3.5 orders
+/// by the split axis instead and tests each node's own box when it is visited).
 fn traverse(nodes: &[BvhNode], ray: &mut Ray, mut visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
-    let dir_is_neg = [ray.direction.x < 0.0, ray.direction.y < 0.0, ray.direction.z < 0.0];
     let mut pre = RayBoxPrecomp::new(ray);
-    let mut stack = [0u32; TRAVERSAL_STACK_SIZE];
+    let bounds = |node: &BvhNode| (Vec3::from(node.bounds_min), Vec3::from(node.bounds_max));
+    let (root_min, root_max) = bounds(&nodes[0]);
+    if box_entry(&pre, root_min, root_max).is_none() {
+        return;
+    }
+    let mut stack = [(0u32, 0.0f32); TRAVERSAL_STACK_SIZE];
     let mut sp = 0usize;
     let mut current = 0u32;
     loop {
         let node = &nodes[current as usize];
-        pre.t_max = ray.t_max;
-        if intersect_box(&pre, Vec3::from(node.bounds_min), Vec3::from(node.bounds_max)) {
-            let count = node.triangle_count();
-            if count > 0 {
-                if visit(node.offset, count, ray) {
-                    return;
+        let count = node.triangle_count();
+        if count > 0 {
+            if visit(node.offset, count, ray) {
+                return;
+            }
+        } else {
+            pre.t_max = ray.t_max;
+            let (first, second) = (current + 1, node.offset);
+            let (min, max) = bounds(&nodes[first as usize]);
+            let entry_first = box_entry(&pre, min, max);
+            let (min, max) = bounds(&nodes[second as usize]);
+            let entry_second = box_entry(&pre, min, max);
+            match (entry_first, entry_second) {
+                (Some(a), Some(b)) => {
+                    let (near, far, far_entry) = if a <= b { (first, second, b) } else { (second, first, a) };
+                    stack[sp] = (far, far_entry);
+                    sp += 1;
+                    current = near;
+                    continue;
                 }
-            } else {
-                // Visit the child on the ray's near side first.
-                let (near, far) = if dir_is_neg[node.axis() as usize] {
-                    (node.offset, current + 1)
-                } else {
-                    (current + 1, node.offset)
-                };
-                stack[sp] = far;
-                sp += 1;
-                current = near;
-                continue;
+                (Some(_), None) => {
+                    current = first;
+                    continue;
+                }
+                (None, Some(_)) => {
+                    current = second;
+                    continue;
+                }
+                (None, None) => {}
             }
         }
-        if sp == 0 {
-            return;
+        // The next deferred child that may still hold a nearer hit.
+        loop {
+            if sp == 0 {
+                return;
+            }
+            sp -= 1;
+            let (node, entry) = stack[sp];
+            if entry_within(entry, ray.t_max) {
+                current = node;
+                break;
+            }
         }
-        sp -= 1;
-        current = stack[sp];
     }
 }
 
@@ -80,10 +109,11 @@ pub fn intersect_closest_filtered(
 ) -> Option<ClosestHit> {
     let mut ray = *ray;
     let mut best = None;
+    let pre = RayTrianglePrecomp::new(&ray);
     traverse(nodes, &mut ray, |first, count, ray| {
         for i in first..first + count {
             let (p0, p1, p2) = vertices(&triangles[i as usize]);
-            if let Some(hit) = intersect_triangle(ray, p0, p1, p2) {
+            if let Some(hit) = intersect_triangle_precomp(&pre, ray.t_max, p0, p1, p2) {
                 if accept(i, &hit) {
                     ray.t_max = hit.t;
                     best = Some(ClosestHit { triangle: i, hit });
@@ -104,10 +134,11 @@ pub fn intersect_any_filtered(
 ) -> bool {
     let mut ray = *ray;
     let mut found = false;
+    let pre = RayTrianglePrecomp::new(&ray);
     traverse(nodes, &mut ray, |first, count, ray| {
         for i in first..first + count {
             let (p0, p1, p2) = vertices(&triangles[i as usize]);
-            if let Some(hit) = intersect_triangle(ray, p0, p1, p2) {
+            if let Some(hit) = intersect_triangle_precomp(&pre, ray.t_max, p0, p1, p2) {
                 if accept(i, &hit) {
                     found = true;
                     return true;

@@ -1,6 +1,6 @@
 //! Axis-aligned boxes and the conservative ray–box test.
 
-use glam::Vec3;
+use glam::{BVec3A, Vec3, Vec3A};
 
 use super::float::gamma;
 use super::ray::Ray;
@@ -61,12 +61,14 @@ impl Aabb {
 /// Per-ray constants of the box test, computed once per traversal.
 #[derive(Clone, Copy, Debug)]
 pub struct RayBoxPrecomp {
-    pub origin: Vec3,
+    /// SIMD vectors (`Vec3A`): the test is a handful of 4-wide operations and selects,
+    /// without a branch per axis.
+    pub origin: Vec3A,
     /// 1/direction, with direction components below [`PARALLEL_THRESHOLD`] replaced by 1 so
     /// that nothing is infinite (WGSL does not promise IEEE infinities or NaN).
-    pub inv_direction: Vec3,
+    pub inv_direction: Vec3A,
     /// Per axis: is the ray parallel to that axis's slabs?
-    pub parallel: [bool; 3],
+    pub parallel: BVec3A,
     pub t_max: f32,
 }
 
@@ -77,15 +79,15 @@ const PARALLEL_THRESHOLD: f32 = 1e-30;
 
 impl RayBoxPrecomp {
     pub fn new(ray: &Ray) -> RayBoxPrecomp {
-        let d = ray.direction;
-        let parallel =
-            [d.x.abs() < PARALLEL_THRESHOLD, d.y.abs() < PARALLEL_THRESHOLD, d.z.abs() < PARALLEL_THRESHOLD];
-        let safe = Vec3::new(
-            if parallel[0] { 1.0 } else { d.x },
-            if parallel[1] { 1.0 } else { d.y },
-            if parallel[2] { 1.0 } else { d.z },
-        );
-        RayBoxPrecomp { origin: ray.origin, inv_direction: Vec3::ONE / safe, parallel, t_max: ray.t_max }
+        let d = Vec3A::from(ray.direction);
+        let parallel = d.abs().cmplt(Vec3A::splat(PARALLEL_THRESHOLD));
+        let safe = Vec3A::select(parallel, Vec3A::ONE, d);
+        RayBoxPrecomp {
+            origin: Vec3A::from(ray.origin),
+            inv_direction: Vec3A::ONE / safe,
+            parallel,
+            t_max: ray.t_max,
+        }
     }
 }
 
@@ -98,19 +100,37 @@ impl RayBoxPrecomp {
 /// triangle test's own rounding can place a hit a few ulps before its box's computed entry,
 /// and without the margin a node whose entry equals the current nearest `t` was pruned
 /// although it held a hit one ulp nearer (found by the brute-force comparison test).
+#[inline(always)]
 pub fn intersect_box(pre: &RayBoxPrecomp, min: Vec3, max: Vec3) -> bool {
+    box_entry(pre, min, max).is_some()
+}
+
+/// [`intersect_box`] returning the (clamped to 0) entry distance of an overlap, which
+/// traversal uses to visit the nearer child first and to skip a deferred child once a hit
+/// nearer than its entry is found (the same test against the shrunk `t_max`).
+#[inline(always)]
+pub fn box_entry(pre: &RayBoxPrecomp, min: Vec3, max: Vec3) -> Option<f32> {
+    let (min, max) = (Vec3A::from(min), Vec3A::from(max));
     let t0 = (min - pre.origin) * pre.inv_direction;
     let t1 = (max - pre.origin) * pre.inv_direction;
-    let mut t_near = t0.min(t1);
-    let mut t_far = t0.max(t1);
-    for axis in 0..3 {
-        if pre.parallel[axis] {
-            let inside = pre.origin[axis] >= min[axis] && pre.origin[axis] <= max[axis];
-            t_near[axis] = if inside { f32::MIN } else { f32::MAX };
-            t_far[axis] = if inside { f32::MAX } else { f32::MIN };
-        }
-    }
-    let enter = t_near.x.max(t_near.y).max(t_near.z).max(0.0);
-    let exit = t_far.x.min(t_far.y).min(t_far.z) * (1.0 + 2.0 * gamma(3));
-    enter <= exit && enter * (1.0 - 4.0 * gamma(3)) <= pre.t_max
+    let inside = pre.origin.cmpge(min) & pre.origin.cmple(max);
+    let t_near = Vec3A::select(
+        pre.parallel,
+        Vec3A::select(inside, Vec3A::splat(f32::MIN), Vec3A::splat(f32::MAX)),
+        t0.min(t1),
+    );
+    let t_far = Vec3A::select(
+        pre.parallel,
+        Vec3A::select(inside, Vec3A::splat(f32::MAX), Vec3A::splat(f32::MIN)),
+        t0.max(t1),
+    );
+    let enter = t_near.max_element().max(0.0);
+    let exit = t_far.min_element() * (1.0 + 2.0 * gamma(3));
+    (enter <= exit && entry_within(enter, pre.t_max)).then_some(enter)
+}
+
+/// Is a box entered at `enter` still before `t_max`? (With the 4γ₃ margin above.)
+#[inline(always)]
+pub fn entry_within(enter: f32, t_max: f32) -> bool {
+    enter * (1.0 - 4.0 * gamma(3)) <= t_max
 }

@@ -33,6 +33,42 @@ fn permute(v: Vec3, x: usize, y: usize, z: usize) -> Vec3 {
     Vec3::new(v[x], v[y], v[z])
 }
 
+/// What the watertight test needs of a ray, computed once per ray rather than once per
+/// triangle: the axis permutation that makes the direction's largest component z, and the
+/// shear that maps the direction to +z (Woop et al. 2013 §3; the three divisions dominated
+/// the per-triangle cost before).
+#[derive(Clone, Copy, Debug)]
+pub struct RayTrianglePrecomp {
+    origin: Vec3,
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+    /// A zero direction (a shadow ray to its own origin) hits nothing.
+    valid: bool,
+}
+
+impl RayTrianglePrecomp {
+    pub fn new(ray: &Ray) -> RayTrianglePrecomp {
+        let kz = max_dimension(ray.direction.abs());
+        let kx = if kz == 2 { 0 } else { kz + 1 };
+        let ky = if kx == 2 { 0 } else { kx + 1 };
+        let d = permute(ray.direction, kx, ky, kz);
+        RayTrianglePrecomp {
+            origin: ray.origin,
+            kx,
+            ky,
+            kz,
+            sx: -d.x / d.z,
+            sy: -d.y / d.z,
+            sz: 1.0 / d.z,
+            valid: d.z != 0.0,
+        }
+    }
+}
+
 /// Intersects `ray` with triangle `p0 p1 p2` within `(0, ray.t_max)`.
 ///
 /// Watertight: a ray through a shared edge or vertex hits at least one of the triangles
@@ -40,29 +76,29 @@ fn permute(v: Vec3, x: usize, y: usize, z: usize) -> Vec3 {
 /// re-evaluate zero edge functions in f64, because WGSL has no portable f64; that only ever
 /// turns a miss into an edge hit, never the reverse.
 pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<TriangleHit> {
+    intersect_triangle_precomp(&RayTrianglePrecomp::new(ray), ray.t_max, p0, p1, p2)
+}
+
+/// [`intersect_triangle`] with the ray's part precomputed (BVH traversal).
+#[inline(always)]
+pub fn intersect_triangle_precomp(
+    pre: &RayTrianglePrecomp,
+    t_max: f32,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+) -> Option<TriangleHit> {
     // Degenerate triangles have no surface to hit.
-    if (p2 - p0).cross(p1 - p0).length_squared() == 0.0 {
+    if !pre.valid || (p2 - p0).cross(p1 - p0).length_squared() == 0.0 {
         return None;
     }
     // Translate to the ray origin, permute so the ray's dominant axis is z, shear so the ray
     // becomes +z.
-    let mut p0t = p0 - ray.origin;
-    let mut p1t = p1 - ray.origin;
-    let mut p2t = p2 - ray.origin;
-    let kz = max_dimension(ray.direction.abs());
-    let kx = if kz == 2 { 0 } else { kz + 1 };
-    let ky = if kx == 2 { 0 } else { kx + 1 };
-    let d = permute(ray.direction, kx, ky, kz);
-    if d.z == 0.0 {
-        // A zero direction (a shadow ray to its own origin) hits nothing.
-        return None;
-    }
-    p0t = permute(p0t, kx, ky, kz);
-    p1t = permute(p1t, kx, ky, kz);
-    p2t = permute(p2t, kx, ky, kz);
-    let sx = -d.x / d.z;
-    let sy = -d.y / d.z;
-    let sz = 1.0 / d.z;
+    let (kx, ky, kz) = (pre.kx, pre.ky, pre.kz);
+    let mut p0t = permute(p0 - pre.origin, kx, ky, kz);
+    let mut p1t = permute(p1 - pre.origin, kx, ky, kz);
+    let mut p2t = permute(p2 - pre.origin, kx, ky, kz);
+    let (sx, sy, sz) = (pre.sx, pre.sy, pre.sz);
     p0t.x += sx * p0t.z;
     p0t.y += sy * p0t.z;
     p1t.x += sx * p1t.z;
@@ -95,10 +131,10 @@ pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<Tri
     p1t.z *= sz;
     p2t.z *= sz;
     let t_scaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
-    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < ray.t_max * det) {
+    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max * det) {
         return None;
     }
-    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > ray.t_max * det) {
+    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max * det) {
         return None;
     }
     let inv_det = 1.0 / det;
