@@ -11,10 +11,12 @@ Only the materials the benchmark scenes use are converted, each to the Mitsuba B
 model is the same as pathlight's for that case; anything else is an error rather than an
 approximation:
 
-  * Lambertian (metallic 0, roughness 1, KHR_materials_specular factor 0) -> `diffuse`
+  * Lambertian (metallic 0, roughness 1, KHR_materials_specular factor 0) -> `diffuse`,
+    wrapped in `twosided` as pathlight shades both sides of an opaque surface
   * emissive (emissiveFactor x KHR_materials_emissive_strength)          -> `area` emitter
   * smooth metal (metallic 1, roughness 0, base colour 1)                  -> `conductor`,
-    material `none` (reflectance 1: pathlight's Schlick Fresnel with F0 = 1 is 1 too)
+    material `none` (reflectance 1: pathlight's Schlick Fresnel with F0 = 1 is 1 too),
+    `twosided`
   * smooth solid glass (transmission 1, roughness 0, KHR_materials_volume,
     no attenuation)                                                        -> `dielectric`
 
@@ -147,10 +149,18 @@ def walk(doc):
 # Materials
 
 
+def two_sided(bsdf):
+    """pathlight reflects light off either side of an opaque surface (a back-face hit is
+    shaded about the flipped normal); Mitsuba's opaque BSDFs are black from behind unless
+    wrapped. Closed meshes never show it; open ones (the text labels of
+    MetalRoughSpheresNoTextures) do."""
+    return {"type": "twosided", "bsdf": bsdf}
+
+
 def mitsuba_material(material, white_override=None):
     """(bsdf dict, emitter dict or None) for a glTF material, or SceneError."""
     if white_override is not None:
-        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": [white_override] * 3}}, None
+        return two_sided({"type": "diffuse", "reflectance": {"type": "rgb", "value": [white_override] * 3}}), None
     name = material.get("name", "(unnamed)")
     pbr = material.get("pbrMetallicRoughness", {})
     ext = material.get("extensions", {})
@@ -175,9 +185,9 @@ def mitsuba_material(material, white_override=None):
     if transmission != 0.0:
         raise SceneError(f"material '{name}': only smooth, clear, solid glass is converted")
     if metallic == 1.0 and roughness == 0.0 and base == [1.0, 1.0, 1.0]:
-        return {"type": "conductor", "material": "none"}, emitter
+        return two_sided({"type": "conductor", "material": "none"}), emitter
     if metallic == 0.0 and roughness == 1.0 and specular == 0.0:
-        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": base}}, emitter
+        return two_sided({"type": "diffuse", "reflectance": {"type": "rgb", "value": base}}), emitter
     raise SceneError(
         f"material '{name}' (metallic {metallic}, roughness {roughness}, specular {specular}): "
         "no Mitsuba BSDF with the same model; not converted"

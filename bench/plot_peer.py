@@ -18,9 +18,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 SERIES = [
-    ("pathlight-cpu.csv", "pathlight CPU backend", "tab:blue"),
-    ("pathlight-gpu.csv", "pathlight GPU backend", "tab:orange"),
-    ("mitsuba.csv", "Mitsuba 3", "tab:green"),
+    ("pathlight-cpu.csv", "pathlight CPU backend", "tab:blue", "o-"),
+    ("pathlight-gpu.csv", "pathlight GPU backend (this machine)", "tab:orange", "o-"),
+    ("mitsuba.csv", "Mitsuba 3", "tab:green", "o-"),
+    # Measured on another machine (`--pathlight-only`), drawn for scale, not compared.
+    ("pathlight-h100.csv", "pathlight GPU backend, H100 (other machine)", "tab:gray", "s--"),
 ]
 
 
@@ -34,19 +36,19 @@ def main():
     out, scenes = sys.argv[1], sys.argv[2:]
     fig, axes = plt.subplots(1, len(scenes), figsize=(4.2 * len(scenes), 4.0), squeeze=False)
     for ax, scene in zip(axes[0], scenes):
-        for name, label, colour in SERIES:
+        for name, label, colour, style in SERIES:
             path = os.path.join(out, scene, name)
             if not os.path.exists(path):
                 continue
             t, e, spp = read(path)
-            ax.loglog(t, e, "o-", color=colour, label=label, markersize=3)
+            ax.loglog(t, e, style, color=colour, label=label, markersize=3)
             ax.loglog([t[-1] / 100, t[-1]], [e[-1] * 100, e[-1]], ":", color=colour, linewidth=0.8)
             ax.annotate(f"{spp[-1]} spp", (t[-1], e[-1]), fontsize=7, color=colour, xytext=(3, 3), textcoords="offset points")
         ax.set_title(scene, fontsize=10)
         ax.set_xlabel("seconds")
         ax.grid(True, which="both", linewidth=0.3)
     axes[0][0].set_ylabel("relMSE against the reference")
-    axes[0][0].legend(fontsize=8)
+    axes[0][0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(os.path.join(out, "peer.svg"))
     print(f"wrote {os.path.join(out, 'peer.svg')}")

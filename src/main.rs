@@ -138,6 +138,10 @@ struct BenchArgs {
     /// machine without it, e.g. a GPU measured beside the peer's machine; no comparison).
     #[arg(long, requires = "peer")]
     pathlight_only: bool,
+    /// With --peer: read the series already under --out instead of rendering them (redo
+    /// the table and plots).
+    #[arg(long, requires = "peer")]
+    reuse_series: bool,
     /// With --peer: where references, error series, plots and the summary go.
     #[arg(long, default_value = "bench/peer")]
     out: PathBuf,
@@ -452,6 +456,7 @@ fn run_peer_bench(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) ->
         variant: args.variant.clone(),
         converged_spp: args.converged_spp,
         run_peer: !args.pathlight_only,
+        reuse_series: args.reuse_series,
         cpu: !args.no_cpu,
         gpu,
     };

@@ -235,3 +235,27 @@ fn unwritable_outputs_fail_before_rendering() {
     assert!(stderr.contains("is a folder"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn peer_bench_without_the_peer_is_a_clear_error() {
+    // `bench --peer` renders the reference, then pathlight's series, then runs the peer's
+    // script; a Python without Mitsuba (here: none at all) must end in an error that says
+    // what could not run, after the reference and the series were written.
+    let dir = temp_dir("peer");
+    let out = pathlight()
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["bench", "--peer", "mitsuba", "--no-gpu", "--width", "8", "--height", "8"])
+        .args(["--reference-spp", "4", "--peer-seconds", "0.001", "--python", "/nonexistent/python3"])
+        .arg("--out")
+        .arg(&dir)
+        .arg("cornell-box")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(stderr.contains("could not run /nonexistent/python3"), "{stderr}");
+    assert!(dir.join("cornell-box/reference.exr").exists(), "no reference written");
+    let series = std::fs::read_to_string(dir.join("cornell-box/pathlight-cpu.csv")).unwrap();
+    assert!(series.starts_with("spp,seconds,relmse\n1,"), "{series}");
+    std::fs::remove_dir_all(&dir).ok();
+}

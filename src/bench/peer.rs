@@ -56,6 +56,9 @@ pub struct PeerOptions {
     pub converged_spp: u32,
     /// Run the peer (false: pathlight's series only, no comparison).
     pub run_peer: bool,
+    /// Read the series already under `out` instead of rendering them (to redo the tables
+    /// and plots); the reference must be there too.
+    pub reuse_series: bool,
     pub cpu: bool,
     pub gpu: Option<Arc<GpuContext>>,
 }
@@ -126,26 +129,6 @@ pub struct PeerResult {
     pub peer: Option<Series>,
     /// The peer's converged image against the reference.
     pub agreement: Option<CompareReport>,
-}
-
-impl PeerResult {
-    /// The lowest relMSE every series reached: where time to equal error is read.
-    pub fn common_error(&self) -> Option<f64> {
-        self.pathlight
-            .iter()
-            .chain(&self.peer)
-            .map(|s| s.last().map(|l| l.0))
-            .try_fold(0.0f64, |m, e| e.map(|e| m.max(e)))
-    }
-
-    /// The shortest series' length: where error at equal time is read.
-    pub fn common_time(&self) -> Option<f64> {
-        self.pathlight
-            .iter()
-            .chain(&self.peer)
-            .map(|s| s.last().map(|l| l.1))
-            .try_fold(f64::INFINITY, |m, t| t.map(|t| m.min(t)))
-    }
 }
 
 /// The fastest backend present for a reference: a hardware GPU, else the CPU.
@@ -270,18 +253,39 @@ fn peer_series(scene: &BenchScene, options: &PeerOptions) -> Result<(Series, Lin
             options.script.display()
         )));
     }
-    let text = std::fs::read_to_string(&log).map_err(|e| Error::io(&log, e))?;
+    peer_outputs(scene, options)
+}
+
+/// The peer's series and converged image as its script left them.
+fn peer_outputs(scene: &BenchScene, options: &PeerOptions) -> Result<(Series, LinearImage)> {
+    let dir = options.out.join(&scene.name);
+    let series = read_series(&dir.join("mitsuba.csv"), format!("Mitsuba 3 {}", options.variant))?;
+    Ok((series, LinearImage::read(&dir.join("mitsuba-converged.exr"))?))
+}
+
+/// Reads a series CSV (columns `spp`, `seconds` and `relmse`, by name).
+fn read_series(path: &Path, label: String) -> Result<Series> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let column = |name: &str| {
+        header
+            .iter()
+            .position(|h| h.trim() == name)
+            .ok_or_else(|| Error::Settings(format!("{}: no '{name}' column", path.display())))
+    };
+    let (spp, seconds, relmse) = (column("spp")?, column("seconds")?, column("relmse")?);
     let mut points = Vec::new();
-    for line in text.lines().skip(1) {
+    for line in lines {
         let f: Vec<&str> = line.split(',').collect();
         let parse = |i: usize| -> Result<f64> {
             f.get(i)
                 .and_then(|v| v.trim().parse::<f64>().ok())
-                .ok_or_else(|| Error::Settings(format!("{}: bad line '{line}'", log.display())))
+                .ok_or_else(|| Error::Settings(format!("{}: bad line '{line}'", path.display())))
         };
-        points.push((parse(0)? as u32, parse(1)?, parse(3)?));
+        points.push((parse(spp)? as u32, parse(seconds)?, parse(relmse)?));
     }
-    Ok((Series { label: format!("Mitsuba 3 {}", options.variant), points }, LinearImage::read(&converged)?))
+    Ok(Series { label, points })
 }
 
 /// Measures one scene: reference, pathlight's series on each backend, the peer's.
@@ -305,18 +309,27 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
     };
     if options.cpu {
         let mut backend = CpuBackend::shared(flat.clone(), &settings);
-        let series = pathlight_series(&mut backend, &reference, options.seconds)?;
+        let series = if options.reuse_series {
+            read_series(&dir.join("pathlight-cpu.csv"), format!("pathlight {}", backend.name()))?
+        } else {
+            pathlight_series(&mut backend, &reference, options.seconds)?
+        };
         write("pathlight-cpu.csv", &series)?;
         pathlight.push(series);
     }
     if let Some(ctx) = &options.gpu {
-        let mut backend = GpuBackend::new(ctx.clone(), &flat, &settings)?;
-        let series = pathlight_series(&mut backend, &reference, options.seconds)?;
+        let series = if options.reuse_series {
+            read_series(&dir.join("pathlight-gpu.csv"), format!("pathlight gpu ({})", ctx.name()))?
+        } else {
+            let mut backend = GpuBackend::new(ctx.clone(), &flat, &settings)?;
+            pathlight_series(&mut backend, &reference, options.seconds)?
+        };
         write("pathlight-gpu.csv", &series)?;
         pathlight.push(series);
     }
     let (peer, agreement) = if options.run_peer {
-        let (peer, converged) = peer_series(scene, options)?;
+        let (peer, converged) =
+            if options.reuse_series { peer_outputs(scene, options)? } else { peer_series(scene, options)? };
         (Some(peer), Some(compare_images(&converged, &reference, &CompareOptions::default())?))
     } else {
         (None, None)
@@ -335,9 +348,13 @@ pub fn markdown(results: &[PeerResult]) -> String {
             Some(a) => format!("**no**: {}", a.failures.join("; ")),
             None => "(peer not run)".into(),
         };
-        let error = r.common_error();
-        let time = r.common_time();
         for p in &r.pathlight {
+            // Pairwise with the peer: the lower error both series reached, the shorter time.
+            let pair = [p].into_iter().chain(&r.peer);
+            let error =
+                pair.clone().map(|s| s.last().map(|l| l.0)).try_fold(0.0f64, |m, e| e.map(|e| m.max(e)));
+            let time =
+                pair.map(|s| s.last().map(|l| l.1)).try_fold(f64::INFINITY, |m, t| t.map(|t| m.min(t)));
             let t_pl = error.and_then(|e| p.time_to_error(e));
             let t_mi = error.zip(r.peer.as_ref()).and_then(|(e, peer)| peer.time_to_error(e));
             let e_pl = time.and_then(|t| p.error_at_time(t));
