@@ -154,17 +154,13 @@ fn ray_box_precomp(ray: Ray) -> RayBoxPrecomp {
     return RayBoxPrecomp(ray.origin, vec3<f32>(1.0) / safe, parallel);
 }
 
-// Ize 2013 / pbrt-v4 `Bounds3::IntersectP`; see src/geometry/bounds.rs for the margins.
-fn intersect_box(pre: RayBoxPrecomp, t_max: f32, bmin: vec3<f32>, bmax: vec3<f32>) -> bool {
-    return box_entry(pre, t_max, bmin, bmax) >= 0.0;
-}
-
 // Twin of `entry_within`.
 fn entry_within(enter: f32, t_max: f32) -> bool {
     return enter * (1.0 - 4.0 * gamma(3)) <= t_max;
 }
 
-// Twin of `box_entry`: the entry distance (≥ 0) of an overlap, or −1 for a miss.
+// Twin of `box_entry` (Ize 2013 / pbrt-v4 `Bounds3::IntersectP`; src/geometry/bounds.rs
+// explains the margins): the entry distance (≥ 0) of an overlap, or −1 for a miss.
 fn box_entry(pre: RayBoxPrecomp, t_max: f32, bmin: vec3<f32>, bmax: vec3<f32>) -> f32 {
     let t0 = (bmin - pre.origin) * pre.inv_direction;
     let t1 = (bmax - pre.origin) * pre.inv_direction;
@@ -222,12 +218,8 @@ fn ray_triangle_precomp(ray: Ray) -> RayTrianglePrecomp {
     return RayTrianglePrecomp(ray.origin, vec3<u32>(kx, ky, kz), vec3<f32>(-d.x / d.z, -d.y / d.z, 1.0 / d.z), d.z != 0.0);
 }
 
-// Woop, Benthin & Wald 2013 with pbrt-v4's conservative t test; see
-// src/geometry/triangle.rs.
-fn intersect_triangle(ray: Ray, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> TriangleHit {
-    return intersect_triangle_precomp(ray_triangle_precomp(ray), ray.t_max, p0, p1, p2);
-}
-
+// Woop, Benthin & Wald 2013 with pbrt-v4's conservative t test; twin of
+// `intersect_triangle_precomp` in src/geometry/triangle.rs.
 fn intersect_triangle_precomp(pre: RayTrianglePrecomp, t_max: f32, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> TriangleHit {
     let c = cross(p2 - p0, p1 - p0);
     if (!pre.valid || dot(c, c) == 0.0) {

@@ -1,4 +1,4 @@
-//! Stack-based traversal of the flat BVH, nearer child first (pbrt-v4 §7.3.5).
+//! Stack-based traversal of the flat BVH, nearer child first (after pbrt-v4 §7.3.5).
 
 use glam::Vec3;
 
@@ -32,10 +32,12 @@ fn vertices(t: &Triangle) -> (Vec3, Vec3, Vec3) {
 /// nearest hit found meanwhile is dropped without loading it again (pbrt-v4 §7.3.5 orders
 /// by the split axis instead and tests each node's own box when it is visited).
 fn traverse(nodes: &[BvhNode], ray: &mut Ray, mut visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
-    let mut pre = RayBoxPrecomp::new(ray);
-    let bounds = |node: &BvhNode| (Vec3::from(node.bounds_min), Vec3::from(node.bounds_max));
-    let (root_min, root_max) = bounds(&nodes[0]);
-    if box_entry(&pre, root_min, root_max).is_none() {
+    let pre = RayBoxPrecomp::new(ray);
+    let entry = |node: u32, t_max: f32| {
+        let node = &nodes[node as usize];
+        box_entry(&pre, t_max, Vec3::from(node.bounds_min), Vec3::from(node.bounds_max))
+    };
+    if entry(0, ray.t_max).is_none() {
         return;
     }
     let mut stack = [(0u32, 0.0f32); TRAVERSAL_STACK_SIZE];
@@ -49,13 +51,8 @@ fn traverse(nodes: &[BvhNode], ray: &mut Ray, mut visit: impl FnMut(u32, u32, &m
                 return;
             }
         } else {
-            pre.t_max = ray.t_max;
             let (first, second) = (current + 1, node.offset);
-            let (min, max) = bounds(&nodes[first as usize]);
-            let entry_first = box_entry(&pre, min, max);
-            let (min, max) = bounds(&nodes[second as usize]);
-            let entry_second = box_entry(&pre, min, max);
-            match (entry_first, entry_second) {
+            match (entry(first, ray.t_max), entry(second, ray.t_max)) {
                 (Some(a), Some(b)) => {
                     let (near, far, far_entry) = if a <= b { (first, second, b) } else { (second, first, a) };
                     stack[sp] = (far, far_entry);
@@ -80,8 +77,8 @@ fn traverse(nodes: &[BvhNode], ray: &mut Ray, mut visit: impl FnMut(u32, u32, &m
                 return;
             }
             sp -= 1;
-            let (node, entry) = stack[sp];
-            if entry_within(entry, ray.t_max) {
+            let (node, node_entry) = stack[sp];
+            if entry_within(node_entry, ray.t_max) {
                 current = node;
                 break;
             }

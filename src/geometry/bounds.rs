@@ -69,7 +69,6 @@ pub struct RayBoxPrecomp {
     pub inv_direction: Vec3A,
     /// Per axis: is the ray parallel to that axis's slabs?
     pub parallel: BVec3A,
-    pub t_max: f32,
 }
 
 /// Direction components smaller than this are treated as exactly parallel to the slab. It
@@ -82,16 +81,13 @@ impl RayBoxPrecomp {
         let d = Vec3A::from(ray.direction);
         let parallel = d.abs().cmplt(Vec3A::splat(PARALLEL_THRESHOLD));
         let safe = Vec3A::select(parallel, Vec3A::ONE, d);
-        RayBoxPrecomp {
-            origin: Vec3A::from(ray.origin),
-            inv_direction: Vec3A::ONE / safe,
-            parallel,
-            t_max: ray.t_max,
-        }
+        RayBoxPrecomp { origin: Vec3A::from(ray.origin), inv_direction: Vec3A::ONE / safe, parallel }
     }
 }
 
-/// Does the ray overlap the box within `(0, t_max)`? Conservative: the far slab distance is
+/// The entry distance (clamped to 0) where the ray overlaps the box within `(0, t_max)`,
+/// else `None`; traversal uses it to visit the nearer child first and to drop a deferred
+/// child once a hit nearer than its entry is found ([`entry_within`]). Conservative: the far slab distance is
 /// scaled by 1 + 2γ₃ so rounding can never make a ray slip between adjacent boxes (Ize 2013,
 /// "Robust BVH Ray Traversal", JCGT 2(2); pbrt-v4 `Bounds3::IntersectP`). A ray parallel to
 /// a slab overlaps it iff its origin lies in the closed slab, without any ∞·0.
@@ -101,15 +97,7 @@ impl RayBoxPrecomp {
 /// and without the margin a node whose entry equals the current nearest `t` was pruned
 /// although it held a hit one ulp nearer (found by the brute-force comparison test).
 #[inline(always)]
-pub fn intersect_box(pre: &RayBoxPrecomp, min: Vec3, max: Vec3) -> bool {
-    box_entry(pre, min, max).is_some()
-}
-
-/// [`intersect_box`] returning the (clamped to 0) entry distance of an overlap, which
-/// traversal uses to visit the nearer child first and to skip a deferred child once a hit
-/// nearer than its entry is found (the same test against the shrunk `t_max`).
-#[inline(always)]
-pub fn box_entry(pre: &RayBoxPrecomp, min: Vec3, max: Vec3) -> Option<f32> {
+pub fn box_entry(pre: &RayBoxPrecomp, t_max: f32, min: Vec3, max: Vec3) -> Option<f32> {
     let (min, max) = (Vec3A::from(min), Vec3A::from(max));
     let t0 = (min - pre.origin) * pre.inv_direction;
     let t1 = (max - pre.origin) * pre.inv_direction;
@@ -126,7 +114,7 @@ pub fn box_entry(pre: &RayBoxPrecomp, min: Vec3, max: Vec3) -> Option<f32> {
     );
     let enter = t_near.max_element().max(0.0);
     let exit = t_far.min_element() * (1.0 + 2.0 * gamma(3));
-    (enter <= exit && entry_within(enter, pre.t_max)).then_some(enter)
+    (enter <= exit && entry_within(enter, t_max)).then_some(enter)
 }
 
 /// Is a box entered at `enter` still before `t_max`? (With the 4γ₃ margin above.)

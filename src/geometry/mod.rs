@@ -8,7 +8,7 @@ mod frame;
 mod ray;
 mod triangle;
 
-pub use bounds::{box_entry, entry_within, intersect_box, Aabb, RayBoxPrecomp};
+pub use bounds::{box_entry, entry_within, Aabb, RayBoxPrecomp};
 pub use float::{difference_of_products, gamma, next_float_down, next_float_up};
 pub use frame::Frame;
 pub use ray::{offset_ray_origin, spawn_ray, spawn_ray_to, Ray, SHADOW_EPSILON};
