@@ -86,14 +86,13 @@ fn texture_sample(info: TextureInfo, uv: vec2<f32>, srgb: bool, lod_in: f32) -> 
     }
     let lod = min(lod_in, f32(levels - 1u));
     let l0f = floor(lod);
-    let t = lod - l0f;
     let l0 = u32(l0f);
+    // No blend at the coarsest level or exactly on a level.
+    let t = select(lod - l0f, 0.0, l0 + 1u >= levels);
     // Both levels through one copy of the bilinear code (see `textured_material`).
-    let count = select(2u, 1u, t == 0.0 || l0 + 1u >= levels);
     var result = vec4<f32>(0.0);
-    for (var k = 0u; k < count; k++) {
-        let weight = select(1.0 - t, t, k == 1u);
-        result += select(weight, 1.0, count == 1u) * level_sample(texture_level(info, l0 + k), uv, srgb, false);
+    for (var k = 0u; k < select(2u, 1u, t == 0.0); k++) {
+        result += select(1.0 - t, t, k == 1u) * level_sample(texture_level(info, l0 + k), uv, srgb, false);
     }
     return result;
 }
