@@ -464,13 +464,7 @@ fn run_peer_bench(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) ->
         args.scenes.iter().map(|n| BenchScene::resolve(n, root, &args.assets)).collect();
     if args.references_only {
         for scene in &scenes {
-            let flat = Arc::new(pathlight::scene::FlatScene::build(
-                &scene.load()?,
-                &pathlight::scene::ViewSettings {
-                    camera: None,
-                    aspect: args.width as f64 / args.height as f64,
-                },
-            )?);
+            let flat = peer::flat_scene(scene, &options)?;
             let (_, note) = peer::reference(scene, &flat, &options)?;
             out!("{}: {note}", scene.name);
         }

@@ -198,7 +198,7 @@ impl Session {
         let choice = match (options.backend, &options.device) {
             (BackendChoice::Auto, Some(_)) => BackendChoice::Gpu,
             (BackendChoice::Auto, None) => match &gpu {
-                Some(ctx) if ctx.info.device_type != wgpu::DeviceType::Cpu => BackendChoice::Gpu,
+                Some(ctx) if ctx.is_hardware() => BackendChoice::Gpu,
                 _ => {
                     let adapters = enumerate_adapters();
                     if crate::gpu::hardware_adapter(&adapters).is_some() {

@@ -138,9 +138,7 @@ fn reference_backend(
     gpu: Option<&Arc<GpuContext>>,
 ) -> Result<Box<dyn Backend>> {
     Ok(match gpu {
-        Some(ctx) if ctx.info.device_type != wgpu::DeviceType::Cpu => {
-            Box::new(GpuBackend::new(ctx.clone(), flat, settings)?)
-        }
+        Some(ctx) if ctx.is_hardware() => Box::new(GpuBackend::new(ctx.clone(), flat, settings)?),
         _ => Box::new(CpuBackend::shared(flat.clone(), settings)),
     })
 }
@@ -157,16 +155,9 @@ pub fn reference(
     if path.exists() {
         let image = LinearImage::read(&path)?;
         if (image.width, image.height) == (options.width as usize, options.height as usize) {
-            let spp = crate::film::read_exr(&path)?
-                .attributes
-                .get("pathlight.spp")
-                .cloned()
-                .unwrap_or_else(|| "?".into());
-            let backend = crate::film::read_exr(&path)?
-                .attributes
-                .get("pathlight.backend")
-                .cloned()
-                .unwrap_or_else(|| "?".into());
+            let spp = image.spp.map_or("?".into(), |n| n.to_string());
+            let backend = crate::film::read_exr(&path)?.attributes.remove("pathlight.backend");
+            let backend = backend.unwrap_or_else(|| "?".into());
             return Ok((image, format!("{} ({spp} spp, {backend}, reused)", path.display())));
         }
     }
@@ -288,12 +279,31 @@ fn read_series(path: &Path, label: String) -> Result<Series> {
     Ok(Series { label, points })
 }
 
+/// The scene flattened for the benchmark's image size (its own camera).
+pub fn flat_scene(scene: &BenchScene, options: &PeerOptions) -> Result<Arc<FlatScene>> {
+    let view = ViewSettings { camera: None, aspect: options.width as f64 / options.height as f64 };
+    Ok(Arc::new(FlatScene::build(&scene.load()?, &view)?))
+}
+
+/// pathlight's series on `backend` written to `file`, or with `reuse_series` the one
+/// already there.
+fn backend_series(
+    backend: &mut dyn Backend,
+    file: &Path,
+    reference: &LinearImage,
+    options: &PeerOptions,
+) -> Result<Series> {
+    if options.reuse_series {
+        return read_series(file, format!("pathlight {}", backend.name()));
+    }
+    let series = pathlight_series(backend, reference, options.seconds)?;
+    std::fs::write(file, series.csv()).map_err(|e| Error::io(file, e))?;
+    Ok(series)
+}
+
 /// Measures one scene: reference, pathlight's series on each backend, the peer's.
 pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult> {
-    let flat = Arc::new(FlatScene::build(
-        &scene.load()?,
-        &ViewSettings { camera: None, aspect: options.width as f64 / options.height as f64 },
-    )?);
+    let flat = flat_scene(scene, options)?;
     let (reference, reference_note) = reference(scene, &flat, options)?;
     let settings = RenderSettings {
         width: options.width,
@@ -303,29 +313,13 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
     };
     let dir = options.out.join(&scene.name);
     let mut pathlight = Vec::new();
-    let write = |name: &str, series: &Series| {
-        let path = dir.join(name);
-        std::fs::write(&path, series.csv()).map_err(|e| Error::io(&path, e))
-    };
     if options.cpu {
         let mut backend = CpuBackend::shared(flat.clone(), &settings);
-        let series = if options.reuse_series {
-            read_series(&dir.join("pathlight-cpu.csv"), format!("pathlight {}", backend.name()))?
-        } else {
-            pathlight_series(&mut backend, &reference, options.seconds)?
-        };
-        write("pathlight-cpu.csv", &series)?;
-        pathlight.push(series);
+        pathlight.push(backend_series(&mut backend, &dir.join("pathlight-cpu.csv"), &reference, options)?);
     }
     if let Some(ctx) = &options.gpu {
-        let series = if options.reuse_series {
-            read_series(&dir.join("pathlight-gpu.csv"), format!("pathlight gpu ({})", ctx.name()))?
-        } else {
-            let mut backend = GpuBackend::new(ctx.clone(), &flat, &settings)?;
-            pathlight_series(&mut backend, &reference, options.seconds)?
-        };
-        write("pathlight-gpu.csv", &series)?;
-        pathlight.push(series);
+        let mut backend = GpuBackend::new(ctx.clone(), &flat, &settings)?;
+        pathlight.push(backend_series(&mut backend, &dir.join("pathlight-gpu.csv"), &reference, options)?);
     }
     let (peer, agreement) = if options.run_peer {
         let (peer, converged) =

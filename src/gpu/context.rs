@@ -259,4 +259,9 @@ impl GpuContext {
     pub fn name(&self) -> String {
         format!("{} ({} {})", self.info.name, self.info.driver, self.info.driver_info)
     }
+
+    /// A hardware device, not a software rasteriser such as lavapipe (adapter type CPU).
+    pub fn is_hardware(&self) -> bool {
+        self.info.device_type != wgpu::DeviceType::Cpu
+    }
 }
