@@ -256,14 +256,9 @@ fn load_unchecked(bytes: &[u8], file: &Path, options: &LoadOptions) -> Result<(S
         ));
     }
     if scene.triangle_count() == 0 {
-        let dropped = if warnings.iter().any(|w| w.starts_with("dropped")) {
-            format!(
-                " ({})",
-                warnings.iter().filter(|w| w.starts_with("dropped")).cloned().collect::<Vec<_>>().join("; ")
-            )
-        } else {
-            String::new()
-        };
+        let dropped: Vec<&str> =
+            warnings.iter().filter(|w| w.starts_with("dropped")).map(String::as_str).collect();
+        let dropped = if dropped.is_empty() { String::new() } else { format!(" ({})", dropped.join("; ")) };
         return Err(err(format!("the scene has no triangles to render{dropped}")));
     }
     Ok((scene, warnings))
