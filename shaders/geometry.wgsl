@@ -205,6 +205,7 @@ fn permute(v: vec3<f32>, x: u32, y: u32, z: u32) -> vec3<f32> {
 // ray.
 struct RayTrianglePrecomp {
     origin: vec3<f32>,
+    direction: vec3<f32>,
     k: vec3<u32>,
     shear: vec3<f32>,
     valid: bool,
@@ -215,7 +216,7 @@ fn ray_triangle_precomp(ray: Ray) -> RayTrianglePrecomp {
     let kx = select(kz + 1u, 0u, kz == 2u);
     let ky = select(kx + 1u, 0u, kx == 2u);
     let d = permute(ray.direction, kx, ky, kz);
-    return RayTrianglePrecomp(ray.origin, vec3<u32>(kx, ky, kz), vec3<f32>(-d.x / d.z, -d.y / d.z, 1.0 / d.z), d.z != 0.0);
+    return RayTrianglePrecomp(ray.origin, ray.direction, vec3<u32>(kx, ky, kz), vec3<f32>(-d.x / d.z, -d.y / d.z, 1.0 / d.z), d.z != 0.0);
 }
 
 // Woop, Benthin & Wald 2013 with pbrt-v4's conservative t test; twin of
@@ -276,10 +277,25 @@ fn intersect_triangle_precomp(pre: RayTrianglePrecomp, t_max: f32, p0: vec3<f32>
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = max_element(abs(vec3<f32>(e0, e1, e2)));
     let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * abs(inv_det);
-    if (t <= delta_t) {
+    if (t <= delta_t && !plane_ahead(pre.origin, pre.direction, p0, p1, p2)) {
         return no_triangle_hit();
     }
     return TriangleHit(b, t, true);
+}
+
+// Twin of `plane_ahead`: is the triangle's plane provably crossed ahead of the origin? Decides
+// hits that δt's extent-wide bound cannot (a bounce near a room's corner).
+fn plane_ahead(origin: vec3<f32>, direction: vec3<f32>, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> bool {
+    let e1 = p1 - p0;
+    let e2 = p2 - p0;
+    let a = origin - p0;
+    let n = cross(e1, e2);
+    let n_abs = abs(e1.yzx * e2.zxy) + abs(e1.zxy * e2.yzx);
+    let s = dot(n, a);
+    let nd = dot(n, direction);
+    let bound = gamma(9);
+    return abs(s) > bound * dot(n_abs, abs(a)) && abs(nd) > bound * dot(n_abs, abs(direction))
+        && (s < 0.0) != (nd < 0.0);
 }
 
 // pbrt-v4 eq. 6.29.
