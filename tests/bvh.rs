@@ -1,10 +1,11 @@
 //! BVH traversal against brute force, watertightness, and self-intersection of spawned
-//! rays — the geometric robustness DESIGN.md asks for, on the flat arrays both backends use.
+//! rays — the geometric robustness DESIGN.md asks for, on the flat arrays both backends use
+//! (the binary tree, and the CPU's 4-wide collapse of it).
 
 mod common;
 
 use glam::Vec3;
-use pathlight::bvh::{build, intersect_any, intersect_closest, MAX_DEPTH};
+use pathlight::bvh::{build, intersect_any, intersect_closest, Traversal, WideBvh, MAX_DEPTH};
 use pathlight::geometry::{intersect_triangle, spawn_ray, triangle_error_bound, Ray};
 use pathlight::sampling::{sample_uniform_sphere, Rng};
 use pathlight::scene::layout::Triangle;
@@ -104,8 +105,21 @@ fn test_scene() -> Vec<[Vec3; 3]> {
     tris
 }
 
+/// Both trees (the binary one the GPU walks and the CPU's 4-wide collapse of it) against
+/// brute force.
 fn check_against_brute_force(
     nodes: &[pathlight::scene::layout::BvhNode],
+    triangles: &[Triangle],
+    ray: &Ray,
+    what: &str,
+) {
+    check_tree_against_brute_force(nodes, triangles, ray, &format!("{what}, binary tree"));
+    let wide = WideBvh::collapse(nodes);
+    check_tree_against_brute_force(&wide, triangles, ray, &format!("{what}, 4-wide tree"));
+}
+
+fn check_tree_against_brute_force<T: Traversal + ?Sized>(
+    nodes: &T,
     triangles: &[Triangle],
     ray: &Ray,
     what: &str,
@@ -199,6 +213,7 @@ fn closed_mesh_is_watertight() {
     let mut rng = Rng::new(4, 4, 4, 4);
     let tris = closed_sphere(&mut rng, 40, 60, 0.2, Vec3::new(0.3, -0.2, 0.1), 1.0);
     let (nodes, triangles) = to_flat(&tris);
+    let wide = WideBvh::collapse(&nodes);
     let mut misses = 0;
     for i in 0..100_000 {
         let origin =
@@ -211,7 +226,10 @@ fn closed_mesh_is_watertight() {
                 t[0].lerp(t[1], rng.next_1d()) - origin
             }
         };
-        if intersect_closest(&nodes, &triangles, &Ray { origin, direction, t_max: f32::MAX }).is_none() {
+        let ray = Ray { origin, direction, t_max: f32::MAX };
+        if intersect_closest(&nodes, &triangles, &ray).is_none()
+            || intersect_closest(&wide, &triangles, &ray).is_none()
+        {
             misses += 1;
         }
     }

@@ -1,14 +1,16 @@
 //! Bounding volume hierarchy over triangles: built by binned SAH in a pointer tree,
-//! flattened into the 32-byte [`BvhNode`](crate::scene::layout::BvhNode) array that both
-//! backends traverse.
+//! flattened into the 32-byte [`BvhNode`](crate::scene::layout::BvhNode) array that the GPU
+//! traverses, and collapsed from it into the CPU's 4-wide [`WideBvh`].
 //!
 //! WGSL twin of `traverse.rs`: `shaders/bvh.wgsl`.
 
 mod build;
 mod traverse;
+mod wide;
 
 pub use build::{build, Bvh, BvhStats, MAX_DEPTH};
 pub use traverse::{
     intersect_any, intersect_any_filtered, intersect_closest, intersect_closest_filtered, ClosestHit,
-    TRAVERSAL_STACK_SIZE,
+    Traversal, TRAVERSAL_STACK_SIZE,
 };
+pub use wide::{WideBvh, WideNode};

@@ -8,6 +8,7 @@ use crate::geometry::{
 use crate::scene::layout::{BvhNode, Triangle};
 
 use super::build::MAX_DEPTH;
+use super::wide::{traverse_wide, WideBvh};
 
 /// Entries in the traversal stack: one per level is enough, because each level pushes at
 /// most one deferred child.
@@ -86,20 +87,51 @@ fn traverse(nodes: &[BvhNode], ray: &mut Ray, mut visit: impl FnMut(u32, u32, &m
     }
 }
 
+/// A tree the intersection queries can walk: the flat binary [`BvhNode`] array (the GPU's
+/// layout) or the CPU's 4-wide [`WideBvh`]. Both visit the same leaves over the same
+/// triangle order.
+pub trait Traversal {
+    /// Calls `visit(first, count, ray)` for the leaves the ray may touch, nearer first, until
+    /// it returns `true`; `visit` may shorten `ray.t_max`.
+    fn traverse(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool);
+}
+
+impl Traversal for [BvhNode] {
+    fn traverse(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
+        traverse(self, ray, visit)
+    }
+}
+
+impl Traversal for Vec<BvhNode> {
+    fn traverse(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
+        traverse(self, ray, visit)
+    }
+}
+
+impl Traversal for WideBvh {
+    fn traverse(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
+        traverse_wide(self, ray, visit)
+    }
+}
+
 /// The nearest intersection in `(0, ray.t_max)`.
-pub fn intersect_closest(nodes: &[BvhNode], triangles: &[Triangle], ray: &Ray) -> Option<ClosestHit> {
-    intersect_closest_filtered(nodes, triangles, ray, |_, _| true)
+pub fn intersect_closest<T: Traversal + ?Sized>(
+    tree: &T,
+    triangles: &[Triangle],
+    ray: &Ray,
+) -> Option<ClosestHit> {
+    intersect_closest_filtered(tree, triangles, ray, |_, _| true)
 }
 
 /// Is anything hit in `(0, ray.t_max)`? Stops at the first hit (shadow rays).
-pub fn intersect_any(nodes: &[BvhNode], triangles: &[Triangle], ray: &Ray) -> bool {
-    intersect_any_filtered(nodes, triangles, ray, |_, _| true)
+pub fn intersect_any<T: Traversal + ?Sized>(tree: &T, triangles: &[Triangle], ray: &Ray) -> bool {
+    intersect_any_filtered(tree, triangles, ray, |_, _| true)
 }
 
 /// [`intersect_closest`] counting only the hits `accept(triangle, hit)` keeps (any-hit
 /// filtering: alpha-tested surfaces).
-pub fn intersect_closest_filtered(
-    nodes: &[BvhNode],
+pub fn intersect_closest_filtered<T: Traversal + ?Sized>(
+    tree: &T,
     triangles: &[Triangle],
     ray: &Ray,
     accept: impl Fn(u32, &TriangleHit) -> bool,
@@ -107,7 +139,7 @@ pub fn intersect_closest_filtered(
     let mut ray = *ray;
     let mut best = None;
     let pre = RayTrianglePrecomp::new(&ray);
-    traverse(nodes, &mut ray, |first, count, ray| {
+    tree.traverse(&mut ray, |first, count, ray| {
         for i in first..first + count {
             let (p0, p1, p2) = vertices(&triangles[i as usize]);
             if let Some(hit) = intersect_triangle_precomp(&pre, ray.t_max, p0, p1, p2) {
@@ -123,8 +155,8 @@ pub fn intersect_closest_filtered(
 }
 
 /// [`intersect_any`] counting only the hits `accept` keeps.
-pub fn intersect_any_filtered(
-    nodes: &[BvhNode],
+pub fn intersect_any_filtered<T: Traversal + ?Sized>(
+    tree: &T,
     triangles: &[Triangle],
     ray: &Ray,
     accept: impl Fn(u32, &TriangleHit) -> bool,
@@ -132,7 +164,7 @@ pub fn intersect_any_filtered(
     let mut ray = *ray;
     let mut found = false;
     let pre = RayTrianglePrecomp::new(&ray);
-    traverse(nodes, &mut ray, |first, count, ray| {
+    tree.traverse(&mut ray, |first, count, ray| {
         for i in first..first + count {
             let (p0, p1, p2) = vertices(&triangles[i as usize]);
             if let Some(hit) = intersect_triangle_precomp(&pre, ray.t_max, p0, p1, p2) {

@@ -28,7 +28,10 @@ pub struct ViewSettings {
 /// Everything a backend needs, in the layout the GPU reads.
 #[derive(Clone, Debug)]
 pub struct FlatScene {
+    /// The binary BVH (the GPU's).
     pub nodes: Vec<BvhNode>,
+    /// The same tree collapsed 4-wide, which the CPU backend traverses.
+    pub wide_bvh: crate::bvh::WideBvh,
     /// BVH leaf order.
     pub triangles: Vec<Triangle>,
     pub normals: Vec<TriangleNormals>,
@@ -265,6 +268,7 @@ impl FlatScene {
         features.normal_maps = triangles.iter().any(|t| t.flags & TRIANGLE_HAS_TANGENTS != 0);
         Ok(FlatScene {
             camera: camera_desc.to_gpu(view.aspect),
+            wide_bvh: crate::bvh::WideBvh::collapse(&bvh.nodes),
             nodes: bvh.nodes,
             triangles,
             normals,
@@ -336,10 +340,10 @@ impl FlatScene {
         alpha_seed: u32,
     ) -> Option<crate::bvh::ClosestHit> {
         if !self.features.alpha {
-            return crate::bvh::intersect_closest(&self.nodes, &self.triangles, ray);
+            return crate::bvh::intersect_closest(&self.wide_bvh, &self.triangles, ray);
         }
         crate::bvh::intersect_closest_filtered(
-            &self.nodes,
+            &self.wide_bvh,
             &self.triangles,
             ray,
             self.alpha_filter(alpha_seed),
@@ -349,9 +353,14 @@ impl FlatScene {
     /// Is anything hit along `ray` (shadow rays), alpha-tested like [`Self::intersect_closest`].
     pub fn intersect_any(&self, ray: &crate::geometry::Ray, alpha_seed: u32) -> bool {
         if !self.features.alpha {
-            return crate::bvh::intersect_any(&self.nodes, &self.triangles, ray);
+            return crate::bvh::intersect_any(&self.wide_bvh, &self.triangles, ray);
         }
-        crate::bvh::intersect_any_filtered(&self.nodes, &self.triangles, ray, self.alpha_filter(alpha_seed))
+        crate::bvh::intersect_any_filtered(
+            &self.wide_bvh,
+            &self.triangles,
+            ray,
+            self.alpha_filter(alpha_seed),
+        )
     }
 
     /// The arrays light sampling reads.
