@@ -326,6 +326,8 @@ struct GltfBsdf {
     sheen_alpha: f32,
     p_coat: f32,
     p_sheen: f32,
+    // Diffuse lobe only: f = baseColor/π without assembling the layers (see the CPU twin).
+    lambertian: bool,
 }
 
 struct BsdfSample {
@@ -387,6 +389,12 @@ fn gltf_bsdf_new(m: Material, wo: vec3<f32>, front_face: bool, coat_normal: vec3
         if (has_sheen(b)) {
             sheen_reflectance = max_element(b.sheen_color) * sheen_albedo(cos_theta_o, b.sheen_roughness);
         }
+    }
+    b.lambertian = b.metallic == 0.0 && b.specular_factor == 0.0 && b.transmission == 0.0 && b.coat == 0.0
+        && max_element(b.sheen_color) <= 0.0 && max_element(b.base_color) > 0.0;
+    if (b.lambertian) {
+        b.p_diffuse = 1.0;
+        return b;
     }
     let f = max_element(dielectric_fresnel(b, cos_theta_o));
     let dielectric = 1.0 - b.metallic;
@@ -483,6 +491,9 @@ fn gltf_bsdf_eval(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     if (wo.z <= 0.0) {
         return vec3<f32>(0.0);
     }
+    if (b.lambertian) {
+        return b.base_color * lambert_eval(wi);
+    }
     let base = base_eval(b, wo, wi);
     if (wi.z > 0.0) {
         var sheen = vec3<f32>(0.0);
@@ -536,6 +547,9 @@ fn gltf_bsdf_pdf(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     if (wo.z <= 0.0) {
         return 0.0;
     }
+    if (b.lambertian) {
+        return lambert_pdf(wi);
+    }
     if (wi.z > 0.0) {
         var p = (b.p_diffuse + b.p_sheen) * lambert_pdf(wi) + b.p_coat * coat_pdf(b, wo, wi);
         if (FEATURE_SPECULAR && b.alpha > 0.0 && b.p_reflect > 0.0) {
@@ -555,6 +569,14 @@ fn gltf_bsdf_pdf(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
 fn gltf_bsdf_sample(b: GltfBsdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BsdfSample {
     if (wo.z <= 0.0) {
         return no_bsdf_sample();
+    }
+    if (b.lambertian) {
+        let wi = lambert_sample(u);
+        let pdf = lambert_pdf(wi);
+        if (pdf <= 0.0) {
+            return no_bsdf_sample();
+        }
+        return BsdfSample(wi, b.base_color, pdf, false, true, 1.0);
     }
     let dielectric = 1.0 - b.metallic;
     var wi: vec3<f32>;

@@ -116,6 +116,11 @@ pub struct GltfBsdf {
     sheen_table: &'static [f32],
     p_coat: f32,
     p_sheen: f32,
+    /// Nothing but the diffuse lobe (no metal, no specular, no transmission, coat or sheen):
+    /// f = baseColor/π, which [`Self::eval`], [`Self::pdf`] and [`Self::sample`] return
+    /// without assembling the layers. The general path gives the same values (F_d = 0 when
+    /// specular = 0) after more work; matte scenes spend most of their shading time here.
+    lambertian: bool,
 }
 
 /// The sheen albedo table when a sheen needs it (an empty slice otherwise, never read).
@@ -153,6 +158,12 @@ impl GltfBsdf {
         let sheen_table = sheen_albedo_table_if(sheen_color.max_element() > 0.0);
         let coat_fresnel_o =
             if coat > 0.0 { fresnel_schlick(Vec3::splat(CLEARCOAT_F0), 1.0, coat_cos_o).x } else { 0.0 };
+        let lambertian = m.metallic == 0.0
+            && m.specular_factor == 0.0
+            && m.transmission == 0.0
+            && coat == 0.0
+            && sheen_color.max_element() <= 0.0
+            && base_color.max_element() > 0.0;
         let mut b = GltfBsdf {
             base_color,
             metallic: m.metallic,
@@ -177,7 +188,12 @@ impl GltfBsdf {
             sheen_table,
             p_coat: 0.0,
             p_sheen: 0.0,
+            lambertian,
         };
+        if lambertian {
+            b.p_diffuse = 1.0;
+            return b;
+        }
         let f = b.dielectric_fresnel(cos_theta_o).max_element();
         let dielectric = 1.0 - b.metallic;
         let color = base_color.max_element();
@@ -287,6 +303,9 @@ impl GltfBsdf {
         if wo.z <= 0.0 {
             return Vec3::ZERO;
         }
+        if self.lambertian {
+            return self.base_color * lambert_eval(wi);
+        }
         let base = self.base_eval(wo, wi);
         if wi.z > 0.0 {
             let sheen = if self.has_sheen() {
@@ -337,6 +356,9 @@ impl GltfBsdf {
         if wo.z <= 0.0 {
             return 0.0;
         }
+        if self.lambertian {
+            return lambert_pdf(wi);
+        }
         if wi.z > 0.0 {
             let mut p =
                 (self.p_diffuse + self.p_sheen) * lambert_pdf(wi) + self.p_coat * self.coat_pdf(wo, wi);
@@ -360,6 +382,19 @@ impl GltfBsdf {
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
+        }
+        if self.lambertian {
+            // f·cos θ/pdf = (baseColor/π)·cos θ/(cos θ/π) = baseColor; a direction on the
+            // horizon has no density and ends the path, as in the general path.
+            let wi = lambert_sample(u);
+            let pdf = lambert_pdf(wi);
+            return (pdf > 0.0).then_some(BsdfSample {
+                wi,
+                weight: self.base_color,
+                pdf_solid_angle: pdf,
+                is_delta: false,
+                eta_scale: 1.0,
+            });
         }
         let dielectric = 1.0 - self.metallic;
         // Lobes in the order coat, sheen, reflection, diffuse, transmission along u_lobe.
@@ -446,5 +481,53 @@ impl GltfBsdf {
             is_delta: false,
             eta_scale,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+    use crate::scene::material::MaterialDesc;
+
+    /// The diffuse-only fast path against the layered evaluation it skips, which a clear
+    /// coat of weight 10⁻⁹ forces (its attenuation 1 − 10⁻⁹·F_c is far below the 10⁻⁵ bound,
+    /// which f32 rounding of the longer path sets), and against the Lambertian's closed form.
+    #[test]
+    fn lambertian_fast_path_equals_the_layered_model() {
+        let desc = MaterialDesc {
+            base_color: Vec3::new(0.7, 0.4, 0.1),
+            metallic: 0.0,
+            roughness: 1.0,
+            specular_factor: 0.0,
+            ..MaterialDesc::default()
+        };
+        let matte = desc.to_gpu(&mut Vec::new(), &|_| false);
+        let coated = Material { clearcoat: 1e-9, ..matte };
+        let mut rng = Rng::new(9, 8, 7, 6);
+        for _ in 0..10_000 {
+            let wo = crate::sampling::sample_uniform_sphere(rng.next_2d());
+            let wi = crate::sampling::sample_uniform_sphere(rng.next_2d());
+            let fast = GltfBsdf::new(&matte, wo, true, Vec3::Z);
+            let layered = GltfBsdf::new(&coated, wo, true, Vec3::Z);
+            // Seen from below its horizon the coat is absent and the coated one is matte too.
+            assert!(fast.lambertian && (wo.z <= 0.0 || !layered.lambertian));
+            let (f, g) = (fast.eval(wo, wi), layered.eval(wo, wi));
+            assert!((f - g).abs().max_element() <= 1e-5 * g.max_element().max(1e-30), "{f} vs {g}");
+            let lit = wo.z > 0.0 && wi.z > 0.0;
+            assert_eq!(
+                f,
+                if lit { Vec3::new(0.7, 0.4, 0.1) * std::f32::consts::FRAC_1_PI } else { Vec3::ZERO }
+            );
+            let pdf = fast.pdf(wo, wi);
+            assert_eq!(pdf, if wo.z > 0.0 { wi.z.max(0.0) * std::f32::consts::FRAC_1_PI } else { 0.0 });
+            if let Some(s) = fast.sample(wo, rng.next_1d(), rng.next_2d()) {
+                assert!(wo.z > 0.0 && s.wi.z > 0.0);
+                assert_eq!(s.weight, Vec3::new(0.7, 0.4, 0.1));
+                assert_eq!(s.pdf_solid_angle, fast.pdf(wo, s.wi));
+            } else {
+                assert!(wo.z <= 0.0);
+            }
+        }
     }
 }
