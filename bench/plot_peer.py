@@ -3,7 +3,7 @@
 
     python3 bench/plot_peer.py OUT SCENE...
 
-reads OUT/<scene>/{pathlight-cpu,pathlight-gpu,mitsuba}.csv and writes OUT/peer.svg (one
+reads OUT/<scene>/{pathlight-cpu,pathlight-cpu-independent,pathlight-gpu,mitsuba}.csv and writes OUT/peer.svg (one
 panel per scene). An unbiased renderer's relMSE falls as 1/t: a line of slope -1, shown
 dotted through each series' last point; a series below another at equal time is ahead.
 """
@@ -19,6 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 SERIES = [
     ("pathlight-cpu.csv", "pathlight CPU backend", "tab:blue", "o-"),
+    ("pathlight-cpu-independent.csv", "pathlight CPU backend, independent sampler", "tab:blue", "x:"),
     ("pathlight-gpu.csv", "pathlight GPU backend (this machine)", "tab:orange", "o-"),
     ("mitsuba.csv", "Mitsuba 3", "tab:green", "o-"),
     # Measured on another machine (`--pathlight-only`), drawn for scale, not compared.

@@ -254,9 +254,10 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     rays_traced = 0u;
     let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
     for (var k = 0u; k < frame.samples; k++) {
-        rng_seed(x, y, frame.sample_offset + k, frame.seed);
+        let sample_index = frame.sample_offset + k;
+        sampler_start(frame.sampler_kind, x, y, sample_index, frame.seed);
         let ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
-        p = film_add_sample(p, radiance(ray, cone));
+        p = film_add_sample(p, radiance(ray, cone), replicate_of(sample_index));
     }
     film[pixel] = p;
     ray_counts[pixel] += rays_traced;
@@ -271,7 +272,8 @@ fn first_hit(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let x = px.x;
     let y = px.y;
-    rng_seed(x, y, 0u, frame.seed);
+    // Jittered by the independent sampler on both backends (`cpu::first_hit`).
+    sampler_start(SAMPLER_INDEPENDENT, x, y, 0u, frame.seed);
     let ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
     let hit = intersect_closest(ray, 0u);
     var out = FirstHit(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), INVALID_INDEX);

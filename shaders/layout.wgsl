@@ -136,6 +136,7 @@ struct FrameParams {
     row_count: u32,
     cone_width: f32,
     cone_spread: f32,
+    sampler_kind: u32,
 }
 
 struct FilmPixel {
@@ -143,6 +144,8 @@ struct FilmPixel {
     count: u32,
     m2: vec3<f32>,
     rejected: u32,
+    odd_mean: vec3<f32>,
+    odd_count: u32,
 }
 
 struct FirstHit {

@@ -1,4 +1,4 @@
-// Twin of src/sampling/ (rng.rs, warp.rs): the same integer arithmetic, so a sample with the
+// Twin of src/sampling/ (rng.rs, sobol.rs, warp.rs): the same integer arithmetic, so a sample with the
 // same pixel, index and seed draws the same numbers as on the CPU.
 
 const PI: f32 = 3.14159265358979323846;
@@ -19,10 +19,28 @@ fn pcg4d(v_in: vec4<u32>) -> vec4<u32> {
     return v;
 }
 
-// xoshiro128** state of this invocation's current sample (Blackman & Vigna 2021).
+// The path sampler (twin of src/sampling/sobol.rs, which explains the construction):
+// padded, shuffled, Owen-scrambled Sobol points in two replicates (Burley 2020), or
+// independent xoshiro128** numbers (Blackman & Vigna 2021). One sample's state, per
+// invocation: for Sobol (pixel seed, bit-reversed index within the replicate, next
+// dimension); for the independent sampler the xoshiro state.
+const SAMPLER_SOBOL: u32 = 0u;
+const SAMPLER_INDEPENDENT: u32 = 1u;
+
+var<private> path_sampler_kind: u32;
 var<private> rng_s: vec4<u32>;
 
-fn rng_seed(x: u32, y: u32, sample_index: u32, seed: u32) {
+fn replicate_of(sample_index: u32) -> u32 {
+    return sample_index & 1u;
+}
+
+fn sampler_start(kind: u32, x: u32, y: u32, sample_index: u32, seed: u32) {
+    path_sampler_kind = kind;
+    if (kind == SAMPLER_SOBOL) {
+        rng_s = vec4<u32>(pcg4d(vec4<u32>(x, y, seed, replicate_of(sample_index))).x,
+                          reverseBits(sample_index >> 1u), 0u, 0u);
+        return;
+    }
     rng_s = pcg4d(vec4<u32>(x, y, sample_index, seed));
     if (all(rng_s == vec4<u32>(0u))) {
         rng_s.x = 1u;
@@ -33,7 +51,7 @@ fn rotl(x: u32, k: u32) -> u32 {
     return (x << k) | (x >> (32u - k));
 }
 
-fn rng_next_u32() -> u32 {
+fn xoshiro_next() -> u32 {
     let result = rotl(rng_s.y * 5u, 7u) * 9u;
     let t = rng_s.y << 9u;
     rng_s.z ^= rng_s.x;
@@ -45,14 +63,80 @@ fn rng_next_u32() -> u32 {
     return result;
 }
 
-// Uniform in [0, 1): the top 24 bits.
+// lowbias32 (Wellons 2018).
+fn hash_u32(x_in: u32) -> u32 {
+    var x = x_in;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return x;
+}
+
+// Laine–Karras permutation with Vegdahl 2021's constants.
+fn lk_permute(x_in: u32, seed: u32) -> u32 {
+    var x = x_in;
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16u) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+
+fn owen_scramble_reversed(reversed: u32, seed: u32) -> u32 {
+    return reverseBits(lk_permute(reversed, seed));
+}
+
+// Bit-reversed second Sobol component: a superset-XOR transform (Pascal's matrix mod 2).
+fn sobol_second_reversed(i: u32) -> u32 {
+    var r = i;
+    r ^= (r >> 1u) & 0x55555555u;
+    r ^= (r >> 2u) & 0x33333333u;
+    r ^= (r >> 4u) & 0x0f0f0f0fu;
+    r ^= (r >> 8u) & 0x00ff00ffu;
+    r ^= (r >> 16u) & 0x0000ffffu;
+    return r;
+}
+
+fn fraction_to_f32(u: u32) -> f32 {
+    return f32(u >> 8u) * (1.0 / 16777216.0);
+}
+
+// The next dimension's seed and this sample's shuffled index there.
+fn sobol_next_dimension() -> vec2<u32> {
+    let dimension_seed = hash_u32(rng_s.x ^ (rng_s.z * 0x9e3779b9u));
+    rng_s.z += 1u;
+    return vec2<u32>(dimension_seed, owen_scramble_reversed(rng_s.y, dimension_seed));
+}
+
+fn rng_next_u32() -> u32 {
+    if (path_sampler_kind == SAMPLER_SOBOL) {
+        let d = sobol_next_dimension();
+        return hash_u32(d.x ^ d.y);
+    }
+    return xoshiro_next();
+}
+
+// Uniform in [0, 1).
 fn rng_next_1d() -> f32 {
-    return f32(rng_next_u32() >> 8u) * (1.0 / 16777216.0);
+    if (path_sampler_kind == SAMPLER_SOBOL) {
+        let d = sobol_next_dimension();
+        return fraction_to_f32(owen_scramble_reversed(d.y, hash_u32(d.x ^ 1u)));
+    }
+    return fraction_to_f32(xoshiro_next());
 }
 
 fn rng_next_2d() -> vec2<f32> {
-    let x = rng_next_1d();
-    let y = rng_next_1d();
+    if (path_sampler_kind == SAMPLER_SOBOL) {
+        let d = sobol_next_dimension();
+        let x = owen_scramble_reversed(d.y, hash_u32(d.x ^ 1u));
+        let y = owen_scramble_reversed(sobol_second_reversed(d.y), hash_u32(d.x ^ 2u));
+        return vec2<f32>(fraction_to_f32(x), fraction_to_f32(y));
+    }
+    let x = fraction_to_f32(xoshiro_next());
+    let y = fraction_to_f32(xoshiro_next());
     return vec2<f32>(x, y);
 }
 

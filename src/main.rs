@@ -164,6 +164,16 @@ enum Peer {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum SamplerChoice {
+    /// Owen-scrambled Sobol points: lower error at the same spp. The EXR's variance
+    /// channels then over-state the error (a conservative z-test); the predicted error
+    /// comes from two independent replicates and stays right.
+    Sobol,
+    /// Independent random numbers: the EXR's variance is exactly the mean's.
+    Independent,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum BackendChoice {
     /// The fastest present: a hardware GPU if there is one; else (only a software Vulkan
     /// rasteriser such as lavapipe, or no Vulkan at all) the CPU backend, saying why.
@@ -201,6 +211,9 @@ struct SceneArgs {
     /// Most scattering events per path (default: unlimited; Russian roulette ends paths).
     #[arg(long)]
     max_depth: Option<u32>,
+    /// Where the paths' random numbers come from.
+    #[arg(long, value_enum, default_value_t = SamplerChoice::Sobol)]
+    sampler: SamplerChoice,
     /// Camera index in the file (default: the first camera, or one framing the scene).
     #[arg(long)]
     camera: Option<usize>,
@@ -711,6 +724,10 @@ fn session_options(args: &SceneArgs, spp: u32) -> SessionOptions {
         spp,
         seed: args.seed,
         max_depth: args.max_depth,
+        sampler: match args.sampler {
+            SamplerChoice::Sobol => pathlight::sampling::SamplerKind::Sobol,
+            SamplerChoice::Independent => pathlight::sampling::SamplerKind::Independent,
+        },
         backend: match args.backend {
             BackendChoice::Auto => pathlight::session::BackendChoice::Auto,
             BackendChoice::Gpu => pathlight::session::BackendChoice::Gpu,

@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use crate::error::Result;
 use crate::film::Film;
+use crate::sampling::SamplerKind;
 
 /// What to render. Shared by both backends.
 #[derive(Clone, Debug, PartialEq)]
@@ -19,11 +20,21 @@ pub struct RenderSettings {
     pub max_depth: Option<u32>,
     /// Russian roulette starts once a path has this many scattering events.
     pub rr_min_depth: u32,
+    /// Where the paths' random numbers come from.
+    pub sampler: SamplerKind,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { width: 512, height: 512, spp: 64, seed: 0, max_depth: None, rr_min_depth: 3 }
+        RenderSettings {
+            width: 512,
+            height: 512,
+            spp: 64,
+            seed: 0,
+            max_depth: None,
+            rr_min_depth: 3,
+            sampler: SamplerKind::default(),
+        }
     }
 }
 

@@ -25,6 +25,7 @@ use crate::film::{write_exr, write_png, Film, RenderMetadata, Tonemap};
 use crate::gpu::{enumerate_adapters, GpuBackend, GpuContext};
 use crate::light::EnvironmentDesc;
 use crate::render::{render_progressive_from, Backend, RenderSettings, RenderStats};
+use crate::sampling::SamplerKind;
 use crate::scene::layout::Camera;
 use crate::scene::{FlatScene, LoadOptions, Scene, ViewSettings};
 
@@ -68,6 +69,8 @@ pub struct SessionOptions {
     pub spp: u32,
     pub seed: u32,
     pub max_depth: Option<u32>,
+    /// Where the paths' random numbers come from.
+    pub sampler: SamplerKind,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
     pub device: Option<String>,
@@ -86,6 +89,7 @@ impl SessionOptions {
             spp: 64,
             seed: 0,
             max_depth: None,
+            sampler: SamplerKind::default(),
             backend: BackendChoice::Auto,
             device: None,
         }
@@ -186,6 +190,7 @@ impl Session {
             spp: options.spp,
             seed: options.seed,
             max_depth: options.max_depth,
+            sampler: options.sampler,
             ..RenderSettings::default()
         };
         settings.validate()?;
@@ -400,6 +405,7 @@ impl Session {
             spp: self.spp_done,
             seed: self.settings.seed,
             max_depth: self.settings.max_depth,
+            sampler: self.settings.sampler,
             render_seconds: self.seconds,
             rejected_samples: rejected,
         })

@@ -8,46 +8,67 @@ use std::process::Command;
 
 use pathlight::cpu::CpuBackend;
 use pathlight::film::{predicted_relmse, ConvergenceRow, LinearImage};
+use pathlight::sampling::SamplerKind;
+use pathlight::scene::FlatScene;
 use pathlight::RenderSettings;
 
-fn cornell_settings(spp: u32, seed: u32) -> RenderSettings {
-    RenderSettings { width: 64, height: 64, spp, seed, ..RenderSettings::default() }
+fn cornell_settings(spp: u32, seed: u32, sampler: SamplerKind) -> RenderSettings {
+    RenderSettings { width: 64, height: 64, spp, seed, sampler, ..RenderSettings::default() }
+}
+
+/// The convergence rows at 1, 2, 4, … 64 spp of one 64×64 render.
+fn rows(scene: &FlatScene, reference: &LinearImage, seed: u32, sampler: SamplerKind) -> Vec<ConvergenceRow> {
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let mut rows = Vec::new();
+    let mut backend = CpuBackend::new(scene, &cornell_settings(64, seed, sampler));
+    pathlight::render_progressive_with(&mut backend, 64, &stop, |b, done, seconds| {
+        if done.is_power_of_two() {
+            let image = LinearImage::from_film(&b.film()?);
+            rows.push(ConvergenceRow::new(&image, Some(reference), done, seconds));
+        }
+        Ok(false)
+    })
+    .unwrap();
+    rows
 }
 
 #[test]
 fn predicted_error_matches_the_actual_error() {
     let scene = common::flat_scene(&common::scene("cornell-box.gltf"), 64, 64);
-    let reference = LinearImage::from_film(&common::render(
-        &mut CpuBackend::new(&scene, &cornell_settings(1024, 77)),
-        1024,
-    ));
-    let reference_error = predicted_relmse(&reference).unwrap();
-    let stop = std::sync::atomic::AtomicBool::new(false);
-    let mut rows = Vec::new();
-    let mut backend = CpuBackend::new(&scene, &cornell_settings(64, 1));
-    pathlight::render_progressive_with(&mut backend, 64, &stop, |b, done, seconds| {
-        if done.is_power_of_two() {
-            let image = LinearImage::from_film(&b.film()?);
-            rows.push(ConvergenceRow::new(&image, Some(&reference), done, seconds));
+    for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
+        let reference = LinearImage::from_film(&common::render(
+            &mut CpuBackend::new(&scene, &cornell_settings(1024, 77, sampler)),
+            1024,
+        ));
+        let reference_error = predicted_relmse(&reference).unwrap();
+        // Pooled over seeds: under Sobol sampling the prediction comes from two replicates,
+        // one degree of freedom per pixel, and on a 64×64 image a single render's prediction
+        // scatters by up to ±40% (measured 0.74–1.41 of the actual over six seeds at 64 spp;
+        // the actual error scatters too). Eight seeds bring that to about ±12%.
+        let (mut predicted, mut actual) = (0.0, 0.0);
+        let seeds = 8;
+        for seed in 1..=seeds {
+            let rows = rows(&scene, &reference, seed, sampler);
+            assert_eq!(rows.iter().map(|r| r.spp).collect::<Vec<_>>(), vec![1, 2, 4, 8, 16, 32, 64]);
+            // Errors fall as spp grows (each doubling roughly halves relMSE).
+            assert!(rows.windows(2).skip(1).all(|w| w[1].relmse < w[0].relmse), "{rows:?}");
+            let last = rows.last().unwrap();
+            // The actual relMSE against a noisy reference is the image's error plus the
+            // reference's (independent renders); the prediction of both is their sum.
+            predicted += (last.predicted_relmse + reference_error) / seeds as f64;
+            actual += last.relmse.unwrap() / seeds as f64;
         }
-        Ok(false)
-    })
-    .unwrap();
-    assert_eq!(rows.iter().map(|r| r.spp).collect::<Vec<_>>(), vec![1, 2, 4, 8, 16, 32, 64]);
-    let last = rows.last().unwrap();
-    // The actual relMSE against a noisy reference is the image's error plus the reference's
-    // (independent renders); the prediction of both is their predicted errors' sum.
-    let predicted = last.predicted_relmse + reference_error;
-    let actual = last.relmse.unwrap();
-    eprintln!(
-        "64 spp: predicted {predicted:.5} (image {:.5} + reference {reference_error:.5}), actual {actual:.5}",
-        last.predicted_relmse
-    );
-    // 20% (the bound). Heavy tails make the prediction optimistic: measured 0.85 of
-    // the actual at 64 spp on this scene (0.78 at 16 spp, which is why 64 is tested).
-    assert!((predicted - actual).abs() <= 0.2 * actual, "predicted {predicted} vs actual {actual}");
-    // Errors fall as spp grows (each doubling roughly halves relMSE).
-    assert!(rows.windows(2).skip(1).all(|w| w[1].relmse < w[0].relmse), "{rows:?}");
+        eprintln!(
+            "{sampler:?}, 64 spp, mean of {seeds} seeds: predicted {predicted:.5} (reference {reference_error:.5}), actual {actual:.5}"
+        );
+        // 20% (the bound). Heavy tails make the prediction optimistic: measured 0.85
+        // of the actual at 64 spp on this scene with independent samples (0.78 at 16 spp,
+        // which is why 64 is tested).
+        assert!(
+            (predicted - actual).abs() <= 0.2 * actual,
+            "{sampler:?}: predicted {predicted} vs actual {actual}"
+        );
+    }
 }
 
 fn pathlight() -> Command {

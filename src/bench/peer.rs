@@ -32,6 +32,7 @@ use crate::film::{
     compare_images, error_against, CompareOptions, CompareReport, LinearImage, RenderMetadata,
 };
 use crate::gpu::{GpuBackend, GpuContext};
+use crate::sampling::SamplerKind;
 use crate::scene::{FlatScene, ViewSettings};
 use crate::{render_progressive_with, Backend, RenderSettings};
 
@@ -181,6 +182,7 @@ pub fn reference(
         spp: settings.spp,
         seed: settings.seed,
         max_depth: None,
+        sampler: settings.sampler,
         render_seconds: seconds,
         rejected_samples: 0,
     };
@@ -289,14 +291,17 @@ pub fn flat_scene(scene: &BenchScene, options: &PeerOptions) -> Result<Arc<FlatS
 /// already there.
 fn backend_series(
     backend: &mut dyn Backend,
+    label_suffix: &str,
     file: &Path,
     reference: &LinearImage,
     options: &PeerOptions,
 ) -> Result<Series> {
+    let label = format!("pathlight {}{label_suffix}", backend.name());
     if options.reuse_series {
-        return read_series(file, format!("pathlight {}", backend.name()));
+        return read_series(file, label);
     }
-    let series = pathlight_series(backend, reference, options.seconds)?;
+    let mut series = pathlight_series(backend, reference, options.seconds)?;
+    series.label = label;
     std::fs::write(file, series.csv()).map_err(|e| Error::io(file, e))?;
     Ok(series)
 }
@@ -315,11 +320,29 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
     let mut pathlight = Vec::new();
     if options.cpu {
         let mut backend = CpuBackend::shared(flat.clone(), &settings);
-        pathlight.push(backend_series(&mut backend, &dir.join("pathlight-cpu.csv"), &reference, options)?);
+        pathlight.push(backend_series(
+            &mut backend,
+            "",
+            &dir.join("pathlight-cpu.csv"),
+            &reference,
+            options,
+        )?);
+        // The same backend with independent random numbers: what the default Sobol sampler
+        // gains, in the same run.
+        let independent = RenderSettings { sampler: SamplerKind::Independent, ..settings.clone() };
+        let mut backend = CpuBackend::shared(flat.clone(), &independent);
+        let file = dir.join("pathlight-cpu-independent.csv");
+        pathlight.push(backend_series(&mut backend, ", independent sampler", &file, &reference, options)?);
     }
     if let Some(ctx) = &options.gpu {
         let mut backend = GpuBackend::new(ctx.clone(), &flat, &settings)?;
-        pathlight.push(backend_series(&mut backend, &dir.join("pathlight-gpu.csv"), &reference, options)?);
+        pathlight.push(backend_series(
+            &mut backend,
+            "",
+            &dir.join("pathlight-gpu.csv"),
+            &reference,
+            options,
+        )?);
     }
     let (peer, agreement) = if options.run_peer {
         let (peer, converged) =

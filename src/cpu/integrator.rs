@@ -15,7 +15,7 @@ use crate::bsdf::GltfBsdf;
 use crate::bvh::ClosestHit;
 use crate::geometry::{spawn_ray, triangle_error_bound, Frame, Ray};
 use crate::light::{environment_lookup, sample_light, triangle_light_pdf};
-use crate::sampling::{power_heuristic, Rng};
+use crate::sampling::{power_heuristic, PathSampler, SamplerKind};
 use crate::scene::camera::RayCone;
 use crate::scene::layout::{
     FirstHit, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, TRIANGLE_HAS_NORMALS,
@@ -191,7 +191,7 @@ pub fn radiance(
     settings: &IntegratorSettings,
     mut ray: Ray,
     cone: RayCone,
-    rng: &mut Rng,
+    rng: &mut PathSampler,
     rays: &mut u64,
 ) -> Vec3 {
     // Distance travelled along the path before the current ray: the cone keeps its spread.
@@ -328,10 +328,11 @@ pub fn radiance(
     l
 }
 
-/// What the camera ray of sample 0 of pixel `(x, y)` hits (the first-hit AOV).
+/// What the camera ray of sample 0 of pixel `(x, y)` hits (the first-hit AOV), its jitter
+/// drawn by the independent sampler on both backends.
 /// The first-hit AOV reads textures at the level of detail of a one-sample render.
 pub fn first_hit(scene: &FlatScene, width: u32, height: u32, x: u32, y: u32, seed: u32) -> FirstHit {
-    let mut rng = Rng::new(x, y, 0, seed);
+    let mut rng = PathSampler::new(SamplerKind::Independent, x, y, 0, seed);
     let ray = crate::scene::camera::generate_camera_ray(&scene.camera, width, height, x, y, rng.next_2d());
     let cone = crate::scene::camera::camera_ray_cone(&scene.camera, height, 1);
     match scene.intersect_closest(&ray, 0) {

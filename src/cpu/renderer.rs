@@ -5,7 +5,7 @@ use rayon::prelude::*;
 use super::integrator::{radiance, IntegratorSettings};
 use crate::film::{film_add_sample, Film};
 use crate::render::{Backend, RenderSettings};
-use crate::sampling::Rng;
+use crate::sampling::{replicate_of, PathSampler};
 use crate::scene::camera::generate_camera_ray;
 use crate::scene::layout::Camera;
 use crate::scene::FlatScene;
@@ -29,7 +29,7 @@ impl std::ops::Deref for SceneRef<'_> {
 }
 
 /// The CPU backend. Deterministic: each pixel's samples are taken in order by one task, and
-/// each sample's random stream depends only on (pixel, sample index, seed).
+/// each sample's random numbers depend only on (sampler, pixel, sample index, seed).
 pub struct CpuBackend<'a> {
     scene: SceneRef<'a>,
     camera: Camera,
@@ -82,11 +82,11 @@ impl CpuBackend<'_> {
                 let y = rows.start as usize + i;
                 for (x, (pixel, rays)) in row.iter_mut().zip(rays).enumerate() {
                     for k in samples.clone() {
-                        let mut rng = Rng::new(x as u32, y as u32, k, seed);
+                        let mut sampler = PathSampler::new(s.sampler, x as u32, y as u32, k, seed);
                         let ray =
-                            generate_camera_ray(camera, width, height, x as u32, y as u32, rng.next_2d());
-                        let l = radiance(scene, &integrator, ray, cone, &mut rng, rays);
-                        film_add_sample(pixel, l);
+                            generate_camera_ray(camera, width, height, x as u32, y as u32, sampler.next_2d());
+                        let l = radiance(scene, &integrator, ray, cone, &mut sampler, rays);
+                        film_add_sample(pixel, l, replicate_of(k));
                     }
                 }
             });

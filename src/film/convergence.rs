@@ -4,7 +4,8 @@
 //! relMSE follows the benchmark protocol: the mean over pixels and channels of
 //! (x − ref)² / (ref² + 10⁻²). The predicted relMSE replaces (x − ref)² by its expectation
 //! for an unbiased image, the variance of the pixel's mean, and ref by the pixel's own mean:
-//! it needs no reference, so `--target-error` can stop on it.
+//! it needs no reference, so `--target-error` can stop on it. Under QMC sampling that
+//! variance is measured from two independent replicates, not from the samples' spread.
 
 use std::fmt::Write as _;
 
@@ -27,13 +28,17 @@ const RELMSE_EPSILON: f64 = 1e-2;
 
 /// The predicted relMSE of an image with per-pixel variance (`None` without variance).
 ///
+/// Reads the replicates' variance of the mean when the image has it (renders: right under
+/// QMC sampling, see [`crate::film::Film::replicate_variance_of_mean`]), else the samples'
+/// (files).
+///
 /// Heavy tails make it optimistic at low spp: a pixel that has not yet drawn its rare bright
 /// paths under-estimates its own variance (measured on the Cornell box against a 1024-spp
 /// reference, after removing the reference's own error: 0.78 of the actual relMSE at 16 spp,
 /// 0.85 at 64). (A 3×3-neighbourhood mean in the denominator was tried and is worse: it
 /// mixes the lamp into its dark surroundings.)
 pub fn predicted_relmse(image: &LinearImage) -> Option<f64> {
-    let variance = image.variance.as_ref()?;
+    let variance = image.replicate_variance.as_ref().or(image.variance.as_ref())?;
     let n = (image.rgb.len() * 3) as f64;
     let sum: f64 = image
         .rgb

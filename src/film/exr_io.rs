@@ -22,6 +22,9 @@ pub struct RenderMetadata {
     pub seed: u32,
     /// `None`: unlimited (Russian roulette ends paths).
     pub max_depth: Option<u32>,
+    /// The sampler: under `sobol` the variance channels over-state the error of the mean
+    /// (see `sampling::sobol`), a conservative z-test.
+    pub sampler: crate::sampling::SamplerKind,
     pub render_seconds: f64,
     /// Non-finite samples dropped.
     pub rejected_samples: u64,
@@ -61,6 +64,7 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
             meta.max_depth.map(|d| d.to_string()).unwrap_or_else(|| "unlimited".into()).as_str(),
         )),
     );
+    put("pathlight.sampler", AttributeValue::Text(Text::from(meta.sampler.name())));
     put("pathlight.scene", AttributeValue::Text(Text::from(meta.scene.as_str())));
     let layer = Layer::new(size, attributes, Encoding::FAST_LOSSLESS, channels);
     let image = Image::from_layer(layer);

@@ -19,6 +19,11 @@ pub struct LinearImage {
     pub variance: Option<Vec<[f32; 3]>>,
     /// Samples per pixel, where the file says (`pathlight.spp`).
     pub spp: Option<u32>,
+    /// Variance of each pixel's mean measured from the sampler's two independent replicates
+    /// ([`Film::replicate_variance_of_mean`]): renders only, never read from a file. Unbiased
+    /// under QMC, where `variance` (from the samples' spread) over-states the error, but with
+    /// one degree of freedom per pixel: for image-wide error estimates, not per-pixel tests.
+    pub replicate_variance: Option<Vec<[f32; 3]>>,
 }
 
 impl LinearImage {
@@ -31,6 +36,9 @@ impl LinearImage {
             rgb: film.mean().iter().map(|c| c.to_array()).collect(),
             variance: (spp >= 2).then(|| film.variance_of_mean().iter().map(|v| v.to_array()).collect()),
             spp: Some(spp),
+            replicate_variance: film
+                .replicate_variance_of_mean()
+                .map(|v| v.iter().map(|v| v.to_array()).collect()),
         }
     }
 
@@ -106,7 +114,7 @@ fn read_exr_image(path: &Path) -> Result<LinearImage> {
         Some(_) if spp.is_some_and(|s| s < 2) => None,
         v => v,
     };
-    Ok(LinearImage { width: exr.width, height: exr.height, rgb, variance, spp })
+    Ok(LinearImage { width: exr.width, height: exr.height, rgb, variance, spp, replicate_variance: None })
 }
 
 fn read_png_image(path: &Path) -> Result<LinearImage> {
@@ -143,7 +151,7 @@ fn read_png_image(path: &Path) -> Result<LinearImage> {
             }
         })
         .collect();
-    Ok(LinearImage { width, height, rgb, variance: None, spp: None })
+    Ok(LinearImage { width, height, rgb, variance: None, spp: None, replicate_variance: None })
 }
 
 #[cfg(test)]

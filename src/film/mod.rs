@@ -1,4 +1,5 @@
-//! The film: per-pixel running mean and variance, and image output.
+//! The film: per-pixel running mean and variance (and the replicates' error), and image
+//! output.
 //!
 //! WGSL twin of the accumulation: `film_add_sample` in `shaders/film.wgsl`.
 
@@ -22,10 +23,11 @@ pub use tonemap::{linear_to_srgb, Tonemap};
 
 use crate::scene::layout::FilmPixel;
 
-/// Adds one sample to a pixel by Welford's update (Welford 1962): stable in f32 for millions
-/// of samples because it accumulates deviations from the running mean, not raw sums.
-/// Non-finite samples are never accumulated; they are counted in `rejected`.
-pub fn film_add_sample(p: &mut FilmPixel, x: Vec3) {
+/// Adds sample `x` of replicate `replicate` (0 or 1, [`crate::sampling::replicate_of`]) to
+/// a pixel by Welford's update (Welford 1962): stable in f32 for millions of samples because
+/// it accumulates deviations from the running mean, not raw sums. Non-finite samples are
+/// never accumulated; they are counted in `rejected`.
+pub fn film_add_sample(p: &mut FilmPixel, x: Vec3, replicate: u32) {
     if !x.is_finite() {
         p.rejected += 1;
         return;
@@ -38,9 +40,13 @@ pub fn film_add_sample(p: &mut FilmPixel, x: Vec3) {
     let m2 = Vec3::from(p.m2) + delta * (x - mean);
     p.mean = mean.to_array();
     p.m2 = m2.to_array();
+    if replicate == 1 {
+        p.odd_count += 1;
+        let odd_mean = Vec3::from(p.odd_mean);
+        p.odd_mean = (odd_mean + (x - odd_mean) / p.odd_count as f32).to_array();
+    }
 }
 
-/// An image being accumulated.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     pub width: u32,
@@ -80,6 +86,33 @@ impl Film {
     }
 
     /// Samples accumulated over all pixels.
+    /// The variance of each pixel's mean measured from its two replicates, or `None` while
+    /// some pixel lacks a sample of either.
+    ///
+    /// With replicate means A (n_A samples) and B (n_B), independent and unbiased, and the
+    /// pixel's mean M = (n_A·A + n_B·B)/n: E[(A − B)²] = Var A + Var B, and with each
+    /// variance falling as 1/n_r, Var M = (A − B)²·n_A·n_B/n² (= (A − B)²/4 for equal
+    /// halves). One degree of freedom per pixel: far too noisy for a per-pixel test, but
+    /// unbiased, so its mean over an image predicts the image's error. Unlike the sample
+    /// variance it stays right when the samples of a pixel are stratified (QMC), where the
+    /// sample variance over-states the error.
+    pub fn replicate_variance_of_mean(&self) -> Option<Vec<Vec3>> {
+        self.pixels
+            .iter()
+            .map(|p| {
+                let (n_odd, n) = (p.odd_count as f32, p.count as f32);
+                let n_even = n - n_odd;
+                if n_odd == 0.0 || n_even == 0.0 {
+                    return None;
+                }
+                let odd = Vec3::from(p.odd_mean);
+                let even = (Vec3::from(p.mean) * n - odd * n_odd) / n_even;
+                let d = even - odd;
+                Some(d * d * (n_even * n_odd / (n * n)))
+            })
+            .collect()
+    }
+
     pub fn total_samples(&self) -> u64 {
         self.pixels.iter().map(|p| p.count as u64).sum()
     }
@@ -140,11 +173,11 @@ mod tests {
     fn welford_matches_two_pass_statistics() {
         let mut p = FilmPixel::default();
         let xs: Vec<f32> = (0..1000).map(|i| 1000.0 + (i as f32 * 0.37).sin()).collect();
-        for &x in &xs {
-            film_add_sample(&mut p, Vec3::splat(x));
+        for (i, &x) in xs.iter().enumerate() {
+            film_add_sample(&mut p, Vec3::splat(x), i as u32 & 1);
         }
-        film_add_sample(&mut p, Vec3::new(f32::NAN, 0.0, 0.0));
-        film_add_sample(&mut p, Vec3::splat(f32::INFINITY));
+        film_add_sample(&mut p, Vec3::new(f32::NAN, 0.0, 0.0), 1);
+        film_add_sample(&mut p, Vec3::splat(f32::INFINITY), 1);
         let n = xs.len() as f64;
         let mean = xs.iter().map(|&x| x as f64).sum::<f64>() / n;
         let m2: f64 = xs.iter().map(|&x| (x as f64 - mean).powi(2)).sum();
@@ -155,5 +188,29 @@ mod tests {
         // ... and M2 (≈ 500 here) to well under a percent, where the naive Σx² − n·mean²
         // in f32 would lose every digit (Σx² ≈ 1e9, ulp 64).
         assert!((p.m2[0] as f64 - m2).abs() / m2 < 1e-3, "{} vs {m2}", p.m2[0]);
+        let odd: Vec<f64> = xs.iter().skip(1).step_by(2).map(|&x| x as f64).collect();
+        assert_eq!(p.odd_count, 500);
+        assert!((p.odd_mean[0] as f64 - odd.iter().sum::<f64>() / 500.0).abs() < 1e-3);
+    }
+
+    /// The replicates' variance of the mean is unbiased: over many pixels of independent
+    /// unit-variance samples its mean is 1/n. With 20,000 pixels of one-degree-of-freedom
+    /// estimates the relative standard error is √(2/20000) = 1%, so 5% is 5σ.
+    #[test]
+    fn replicate_variance_is_unbiased() {
+        let n = 16;
+        let mut film = Film::new(200, 100);
+        let mut rng = crate::sampling::Rng::new(1, 2, 3, 4);
+        for p in &mut film.pixels {
+            for k in 0..n {
+                // Uniform on [0, √12): variance 1.
+                let x = rng.next_1d() * 12f32.sqrt();
+                film_add_sample(p, Vec3::splat(x), k & 1);
+            }
+        }
+        let v = film.replicate_variance_of_mean().unwrap();
+        let mean = v.iter().map(|v| v.x as f64).sum::<f64>() / v.len() as f64;
+        assert!((mean * n as f64 - 1.0).abs() < 0.05, "{}", mean * n as f64);
+        assert!(Film::new(2, 2).replicate_variance_of_mean().is_none());
     }
 }

@@ -231,6 +231,7 @@ impl GpuBackend {
             row_count,
             cone_width: cone.width,
             cone_spread: cone.spread,
+            sampler_kind: self.settings.sampler.index(),
         }
     }
 

@@ -1,11 +1,13 @@
-//! Random numbers, warps from the unit square, and discrete distributions.
+//! Random numbers (the path sampler and a plain generator), warps from the unit square, and discrete distributions.
 //!
 //! WGSL twin: `shaders/sampling.wgsl` (same function names).
 
 mod alias;
 mod rng;
+mod sobol;
 mod warp;
 
 pub use alias::{build_alias_table, AliasEntry};
 pub use rng::{pcg4d, Rng};
+pub use sobol::{hash_u32, replicate_of, PathSampler, SamplerKind};
 pub use warp::*;

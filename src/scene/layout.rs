@@ -340,7 +340,7 @@ pub const PROJECTION_PERSPECTIVE: u32 = 0;
 pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
 
 gpu_struct! {
-    /// What one dispatch computes, 48 bytes.
+    /// What one dispatch computes, 52 bytes.
     pub struct FrameParams {
         pub width: u32,
         pub height: u32,
@@ -362,12 +362,16 @@ gpu_struct! {
         /// width at the camera and spread angle.
         pub cone_width: f32,
         pub cone_spread: f32,
+        /// `SamplerKind::index` of the paths' sampler.
+        pub sampler_kind: u32,
     }
 }
 
 gpu_struct! {
     /// One pixel of the film: Welford's running mean and sum of squared deviations
-    /// (Welford 1962; Knuth TAOCP vol. 2 §4.2.2), 32 bytes.
+    /// (Welford 1962; Knuth TAOCP vol. 2 §4.2.2), and the running mean of the odd-indexed
+    /// samples, the second of the sampler's two independent replicates
+    /// (`sampling::replicate_of`), from which the error of a QMC mean is measured. 48 bytes.
     pub struct FilmPixel {
         pub mean: [f32; 3],
         /// Samples accumulated.
@@ -376,6 +380,10 @@ gpu_struct! {
         pub m2: [f32; 3],
         /// Samples rejected because they were not finite.
         pub rejected: u32,
+        /// Mean of the accumulated samples of replicate 1 (odd sample indices).
+        pub odd_mean: [f32; 3],
+        /// Samples of replicate 1 accumulated.
+        pub odd_count: u32,
     }
 }
 

@@ -1,0 +1,283 @@
+//! The path sampler: where each of a path's random numbers comes from.
+//!
+//! Default: padded, shuffled, Owen-scrambled Sobol points (Burley 2020, "Practical Hash-based
+//! Owen Scrambling", JCGT 9(4)). Every 2-D request of a path (camera jitter, light choice,
+//! light point, BSDF direction, …) gets the next *dimension*; within one dimension the
+//! pixel's samples are the first two Sobol components — a (0,2)-sequence — so every
+//! power-of-two prefix of them is stratified like a (0,m,2)-net. Each dimension shuffles the
+//! sample order with its own seed (a nested uniform scramble of the index), which pads the
+//! dimensions together without correlating them, and Owen-scrambles both coordinates.
+//! Paths of any length are covered: dimensions are never exhausted.
+//!
+//! Owen scrambling keeps the estimator unbiased but makes the samples of a pixel dependent,
+//! so their sample variance no longer measures the mean's error (it over-states it where the
+//! stratification helps). The samples are therefore split into two *replicates*, the even
+//! and the odd sample indices, each with its own independent scrambling: the difference of
+//! the two replicates' means is an unbiased measure of the error (Owen 2013, "Monte Carlo
+//! theory, methods and examples", §17.2 on randomised QMC error estimates from independent
+//! replicates), which [`crate::film`] keeps per pixel.
+//!
+//! `Independent` keeps one xoshiro stream per sample ([`Rng`]), whose sample variance is
+//! exactly the per-sample variance a z-test expects.
+//!
+//! All integer arithmetic, so the WGSL twin (`shaders/sampling.wgsl`) draws the same numbers.
+
+use glam::{UVec4, Vec2};
+
+use super::rng::{pcg4d, Rng};
+
+/// Where a path's random numbers come from (`--sampler`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SamplerKind {
+    /// Owen-scrambled Sobol points in two independent replicates.
+    #[default]
+    Sobol,
+    /// Independent uniform numbers (xoshiro128**).
+    Independent,
+}
+
+impl SamplerKind {
+    /// Its name on the command line and in EXR metadata.
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplerKind::Sobol => "sobol",
+            SamplerKind::Independent => "independent",
+        }
+    }
+
+    /// The value the kernel's `frame.sampler_kind` holds.
+    pub fn index(self) -> u32 {
+        match self {
+            SamplerKind::Sobol => 0,
+            SamplerKind::Independent => 1,
+        }
+    }
+}
+
+/// Which of the two replicates sample `sample_index` of a pixel belongs to.
+pub fn replicate_of(sample_index: u32) -> u32 {
+    sample_index & 1
+}
+
+/// A 32-bit integer hash with low bias (Wellons 2018, "Prospecting for Hash Functions",
+/// `lowbias32`).
+pub fn hash_u32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    x
+}
+
+/// A random permutation of 32-bit values in which each bit depends only on the bits below it
+/// (Laine & Karras 2011's construction, with Vegdahl 2021's constants, "Building a Better LK
+/// Hash"). Applied to bit-reversed values it is an Owen scramble.
+fn lk_permute(mut x: u32, seed: u32) -> u32 {
+    x ^= x.wrapping_mul(0x3d20_adea);
+    x = x.wrapping_add(seed);
+    x = x.wrapping_mul((seed >> 16) | 1);
+    x ^= x.wrapping_mul(0x0552_6c56);
+    x ^= x.wrapping_mul(0x53a2_2864);
+    x
+}
+
+/// Owen scramble of the 32-bit fraction whose *bit-reversed* value is `reversed`; returns
+/// the scrambled fraction (most significant bit = ½).
+fn owen_scramble_reversed(reversed: u32, seed: u32) -> u32 {
+    lk_permute(reversed, seed).reverse_bits()
+}
+
+/// Bit-reversed second Sobol component of index `i`.
+///
+/// Its generator matrix is Pascal's triangle mod 2 (direction numbers v₁ = ½,
+/// vₖ₊₁ = vₖ ⊕ vₖ/2), so by Lucas' theorem output bit a (a = 0 the ½ bit) is the parity of
+/// the index bits k whose positions are supersets of a's (k & a = a): a superset-XOR
+/// transform over the five bits of a position, five shift-and-mask steps.
+fn sobol_second_reversed(i: u32) -> u32 {
+    let mut r = i;
+    r ^= (r >> 1) & 0x5555_5555;
+    r ^= (r >> 2) & 0x3333_3333;
+    r ^= (r >> 4) & 0x0f0f_0f0f;
+    r ^= (r >> 8) & 0x00ff_00ff;
+    r ^= (r >> 16) & 0x0000_ffff;
+    r
+}
+
+/// Top 24 bits of a fraction as a float in [0, 1), each value exactly representable.
+fn fraction_to_f32(u: u32) -> f32 {
+    (u >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// The random numbers of one sample (one path) of one pixel.
+#[derive(Clone, Debug)]
+pub enum PathSampler {
+    Sobol {
+        /// Hash of (pixel, seed, replicate): the root of every dimension's scrambling.
+        pixel_seed: u32,
+        /// The sample's index within its replicate, bit-reversed.
+        index_reversed: u32,
+        /// The next dimension to hand out.
+        dimension: u32,
+    },
+    Independent(Rng),
+}
+
+impl PathSampler {
+    /// The numbers of sample `sample_index` of pixel `(x, y)` under `seed`.
+    pub fn new(kind: SamplerKind, x: u32, y: u32, sample_index: u32, seed: u32) -> PathSampler {
+        match kind {
+            SamplerKind::Sobol => PathSampler::Sobol {
+                pixel_seed: pcg4d(UVec4::new(x, y, seed, replicate_of(sample_index))).x,
+                index_reversed: (sample_index >> 1).reverse_bits(),
+                dimension: 0,
+            },
+            SamplerKind::Independent => PathSampler::Independent(Rng::new(x, y, sample_index, seed)),
+        }
+    }
+
+    /// The next dimension's seed and the sample's shuffled index there.
+    fn next_dimension(pixel_seed: u32, index_reversed: u32, dimension: &mut u32) -> (u32, u32) {
+        let dimension_seed = hash_u32(pixel_seed ^ dimension.wrapping_mul(0x9e37_79b9));
+        *dimension += 1;
+        // Nested uniform scramble of the index (Burley 2020 §4): the first 2^m samples map
+        // to one aligned block of 2^m Sobol indices, so each prefix stays a (0,m,2)-net.
+        let shuffled = owen_scramble_reversed(index_reversed, dimension_seed);
+        (dimension_seed, shuffled)
+    }
+
+    /// A uniform 32-bit integer (stochastic alpha's hash input), not stratified.
+    pub fn next_u32(&mut self) -> u32 {
+        match self {
+            PathSampler::Sobol { pixel_seed, index_reversed, dimension } => {
+                let (dimension_seed, shuffled) =
+                    Self::next_dimension(*pixel_seed, *index_reversed, dimension);
+                hash_u32(dimension_seed ^ shuffled)
+            }
+            PathSampler::Independent(rng) => rng.next_u32(),
+        }
+    }
+
+    /// Uniform in [0, 1).
+    pub fn next_1d(&mut self) -> f32 {
+        match self {
+            PathSampler::Sobol { pixel_seed, index_reversed, dimension } => {
+                let (dimension_seed, shuffled) =
+                    Self::next_dimension(*pixel_seed, *index_reversed, dimension);
+                // The first Sobol component is the bit-reversed index (van der Corput).
+                fraction_to_f32(owen_scramble_reversed(shuffled, hash_u32(dimension_seed ^ 1)))
+            }
+            PathSampler::Independent(rng) => rng.next_1d(),
+        }
+    }
+
+    /// Uniform in [0, 1)².
+    pub fn next_2d(&mut self) -> Vec2 {
+        match self {
+            PathSampler::Sobol { pixel_seed, index_reversed, dimension } => {
+                let (dimension_seed, shuffled) =
+                    Self::next_dimension(*pixel_seed, *index_reversed, dimension);
+                let x = owen_scramble_reversed(shuffled, hash_u32(dimension_seed ^ 1));
+                let y = owen_scramble_reversed(sobol_second_reversed(shuffled), hash_u32(dimension_seed ^ 2));
+                Vec2::new(fraction_to_f32(x), fraction_to_f32(y))
+            }
+            PathSampler::Independent(rng) => rng.next_2d(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The second Sobol component of index i, straight from its direction numbers.
+    fn sobol_second_by_definition(i: u32) -> u32 {
+        let (mut r, mut v) = (0u32, 1u32 << 31);
+        for k in 0..32 {
+            if i >> k & 1 != 0 {
+                r ^= v;
+            }
+            v ^= v >> 1;
+        }
+        r
+    }
+
+    #[test]
+    fn superset_transform_is_the_second_sobol_component() {
+        // Known values in index order (not the Gray-code order of Joe & Kuo's tables):
+        // 0, ½, ¾, ¼, ⅝, ⅛, ⅜, ⅞.
+        let expect = [0.0, 0.5, 0.75, 0.25, 0.625, 0.125, 0.375, 0.875];
+        for (i, e) in expect.iter().enumerate() {
+            let y = sobol_second_reversed(i as u32).reverse_bits();
+            assert_eq!(y as f64 / 4_294_967_296.0, *e, "index {i}");
+        }
+        let mut rng = Rng::new(1, 2, 3, 4);
+        for _ in 0..10_000 {
+            let i = rng.next_u32();
+            assert_eq!(sobol_second_reversed(i).reverse_bits(), sobol_second_by_definition(i));
+        }
+    }
+
+    /// Every prefix of 2^m samples of every dimension is a (0,m,2)-net: each elementary
+    /// interval [a/2^j, (a+1)/2^j) × [b/2^(m−j), (b+1)/2^(m−j)) holds exactly one point.
+    #[test]
+    fn each_dimension_is_a_net_in_each_replicate() {
+        for m in [1u32, 4, 6, 8] {
+            let n = 1u32 << m;
+            for replicate in 0..2 {
+                // Dimension d of samples replicate, replicate + 2, …
+                let points: Vec<Vec<Vec2>> = (0..n)
+                    .map(|k| {
+                        let mut s = PathSampler::new(SamplerKind::Sobol, 5, 9, 2 * k + replicate, 42);
+                        (0..5).map(|_| s.next_2d()).collect()
+                    })
+                    .collect();
+                for d in 0..5 {
+                    for j in 0..=m {
+                        let (nx, ny) = (1u32 << j, 1u32 << (m - j));
+                        let mut cells = vec![0u32; n as usize];
+                        for p in &points {
+                            let (cx, cy) = ((p[d].x * nx as f32) as u32, (p[d].y * ny as f32) as u32);
+                            cells[(cy * nx + cx) as usize] += 1;
+                        }
+                        assert!(cells.iter().all(|&c| c == 1), "m {m} dimension {d} split {j}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// The replicates and the dimensions are scrambled independently: the correlation of
+    /// their numbers over many pixels is near zero. With n = 65,536 pairs the standard error
+    /// of a correlation is 1/√n ≈ 0.004, so 0.02 is 5σ.
+    #[test]
+    fn dimensions_and_replicates_are_uncorrelated() {
+        let n = 65_536u32;
+        let correlation = |pairs: &[(f32, f32)]| {
+            let count = pairs.len() as f64;
+            let (mx, my) = pairs.iter().fold((0.0, 0.0), |(a, b), p| (a + p.0 as f64, b + p.1 as f64));
+            let (mx, my) = (mx / count, my / count);
+            let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+            for p in pairs {
+                let (dx, dy) = (p.0 as f64 - mx, p.1 as f64 - my);
+                sxy += dx * dy;
+                sxx += dx * dx;
+                syy += dy * dy;
+            }
+            sxy / (sxx * syy).sqrt()
+        };
+        let (mut across_dimensions, mut across_replicates) = (Vec::new(), Vec::new());
+        for p in 0..n {
+            let (x, y) = (p % 256, p / 256);
+            let mut even = PathSampler::new(SamplerKind::Sobol, x, y, 0, 7);
+            let mut odd = PathSampler::new(SamplerKind::Sobol, x, y, 1, 7);
+            let (a, b) = (even.next_2d(), even.next_2d());
+            across_dimensions.push((a.x, b.x));
+            across_replicates.push((a.y, odd.next_2d().y));
+        }
+        for (name, pairs) in [("dimensions", &across_dimensions), ("replicates", &across_replicates)] {
+            let r = correlation(pairs);
+            assert!(r.abs() < 0.02, "{name}: correlation {r}");
+        }
+    }
+}
