@@ -5,7 +5,8 @@ The glTF is read here, independently of pathlight's loader (so a loader bug show
 failed z-test rather than being copied into both renders), and converted to a Mitsuba 3
 scene: the same triangles and vertex normals, the same camera and box pixel filter,
 Mitsuba's own `path` integrator with its defaults (unlimited depth, roulette from depth 5)
-and its default `independent` sampler.
+and its default `independent` sampler, or another with --sampler (`ldsampler`: Mitsuba's
+low-discrepancy (0,2)-sequence sampler, the counterpart of pathlight's default).
 
 Only the materials the benchmark scenes use are converted, each to the Mitsuba BSDF whose
 model is the same as pathlight's for that case; anything else is an error rather than an
@@ -286,7 +287,7 @@ def build_scene(args, workdir):
         "to_world": mi.ScalarTransform4f().look_at(
             origin=origin.tolist(), target=(origin + forward).tolist(), up=up.tolist()
         ),
-        "sampler": {"type": "independent"},
+        "sampler": {"type": args.sampler},
         "film": {
             "type": "hdrfilm",
             "width": args.width,
@@ -358,7 +359,8 @@ def main():
     p.add_argument("--converged-spp", type=int, default=1024)
     p.add_argument("--batches", type=int, default=16)
     p.add_argument("--log", required=True, help="CSV: spp, seconds, rmse, relmse")
-    p.add_argument("--converged", required=True, help="EXR written with mean and variance")
+    p.add_argument("--converged", help="EXR written with mean and variance (none: no converged image)")
+    p.add_argument("--sampler", default="independent", help="Mitsuba sampler plugin (independent, ldsampler, ...)")
     args = p.parse_args()
 
     try:
@@ -379,12 +381,15 @@ def main():
                 print(f"mitsuba {spp:>6} spp {seconds:>9.3f} s  RMSE {rmse:.5f}  relMSE {relmse:.5f}", file=sys.stderr, flush=True)
                 if seconds >= args.time_limit:
                     break
-                spp *= 2
+                # ldsampler takes square powers of two only (it rounds anything else up).
+                spp *= 4 if args.sampler == "ldsampler" else 2
             with open(args.log, "w", newline="") as f:
                 w = csv.writer(f)
                 w.writerow(["spp", "seconds", "rmse", "relmse"])
                 w.writerows(rows)
 
+            if not args.converged:
+                return
             per_batch = max(1, args.converged_spp // args.batches)
             batches = [render(scene, per_batch, 1_000_000 + b)[0].astype(np.float64) for b in range(args.batches)]
             stack = np.stack(batches)

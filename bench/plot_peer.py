@@ -3,7 +3,7 @@
 
     python3 bench/plot_peer.py OUT SCENE...
 
-reads OUT/<scene>/{pathlight-cpu,pathlight-cpu-independent,pathlight-gpu,mitsuba}.csv and writes OUT/peer.svg (one
+reads OUT/<scene>/{pathlight-cpu,pathlight-cpu-independent,pathlight-gpu,mitsuba,mitsuba-ldsampler}.csv and writes OUT/peer.svg (one
 panel per scene). An unbiased renderer's relMSE falls as 1/t: a line of slope -1, shown
 dotted through each series' last point; a series below another at equal time is ahead.
 """
@@ -22,6 +22,7 @@ SERIES = [
     ("pathlight-cpu-independent.csv", "pathlight CPU backend, independent sampler", "tab:blue", "x:"),
     ("pathlight-gpu.csv", "pathlight GPU backend (this machine)", "tab:orange", "o-"),
     ("mitsuba.csv", "Mitsuba 3", "tab:green", "o-"),
+    ("mitsuba-ldsampler.csv", "Mitsuba 3, ldsampler", "tab:green", "x:"),
     # Measured on another machine (`--pathlight-only`), drawn for scale, not compared.
     ("pathlight-h100.csv", "pathlight GPU backend, H100 (other machine)", "tab:gray", "s--"),
 ]

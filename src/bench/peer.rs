@@ -126,8 +126,11 @@ pub struct PeerResult {
     pub scene: String,
     pub reference_note: String,
     pub pathlight: Vec<Series>,
-    /// The peer's series (`None` with `run_peer` off).
+    /// The peer's series (`None` with `run_peer` off), with its default sampler.
     pub peer: Option<Series>,
+    /// The peer's series with its low-discrepancy sampler (`ldsampler`), pathlight's
+    /// default's counterpart.
+    pub peer_low_discrepancy: Option<Series>,
     /// The peer's converged image against the reference.
     pub agreement: Option<CompareReport>,
 }
@@ -216,22 +219,51 @@ fn pathlight_series(backend: &mut dyn Backend, reference: &LinearImage, seconds:
 /// Runs the peer's script on `scene` and reads back its series and converged image.
 fn peer_series(scene: &BenchScene, options: &PeerOptions) -> Result<(Series, LinearImage)> {
     let dir = options.out.join(&scene.name);
-    let log = dir.join("mitsuba.csv");
-    let converged = dir.join("mitsuba-converged.exr");
+    run_peer_script(
+        scene,
+        options,
+        "independent",
+        &dir.join("mitsuba.csv"),
+        Some(&dir.join("mitsuba-converged.exr")),
+    )?;
+    peer_outputs(scene, options)
+}
+
+/// The peer's series with its low-discrepancy sampler (no converged image: the z-test is
+/// the default sampler's).
+fn peer_low_discrepancy_series(scene: &BenchScene, options: &PeerOptions) -> Result<Series> {
+    let log = options.out.join(&scene.name).join("mitsuba-ldsampler.csv");
+    if !options.reuse_series {
+        run_peer_script(scene, options, "ldsampler", &log, None)?;
+    }
+    read_series(&log, format!("Mitsuba 3 {} ldsampler", options.variant))
+}
+
+/// Runs the converter script: the error series with Mitsuba sampler `sampler` into `log`
+/// and, if asked, the converged image.
+fn run_peer_script(
+    scene: &BenchScene,
+    options: &PeerOptions,
+    sampler: &str,
+    log: &Path,
+    converged: Option<&Path>,
+) -> Result<()> {
+    let dir = options.out.join(&scene.name);
     let mut command = Command::new(&options.python);
     command
         .arg(&options.script)
         .arg(&scene.base)
         .args(["--width", &options.width.to_string(), "--height", &options.height.to_string()])
-        .args(["--variant", &options.variant])
+        .args(["--variant", &options.variant, "--sampler", sampler])
         .arg("--reference")
         .arg(dir.join("reference.exr"))
         .args(["--time-limit", &options.seconds.to_string()])
         .args(["--converged-spp", &options.converged_spp.to_string()])
         .arg("--log")
-        .arg(&log)
-        .arg("--converged")
-        .arg(&converged);
+        .arg(log);
+    if let Some(converged) = converged {
+        command.arg("--converged").arg(converged);
+    }
     if let Some(insert) = &scene.insert {
         let matrix: Vec<String> = insert.transform.to_cols_array().iter().map(|v| format!("{v:e}")).collect();
         command.arg("--insert").arg(&insert.path).arg(format!("--matrix={}", matrix.join(",")));
@@ -246,7 +278,7 @@ fn peer_series(scene: &BenchScene, options: &PeerOptions) -> Result<(Series, Lin
             options.script.display()
         )));
     }
-    peer_outputs(scene, options)
+    Ok(())
 }
 
 /// The peer's series and converged image as its script left them.
@@ -344,21 +376,29 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
             options,
         )?);
     }
-    let (peer, agreement) = if options.run_peer {
+    let (peer, agreement, peer_low_discrepancy) = if options.run_peer {
         let (peer, converged) =
             if options.reuse_series { peer_outputs(scene, options)? } else { peer_series(scene, options)? };
-        (Some(peer), Some(compare_images(&converged, &reference, &CompareOptions::default())?))
+        let agreement = compare_images(&converged, &reference, &CompareOptions::default())?;
+        (Some(peer), Some(agreement), Some(peer_low_discrepancy_series(scene, options)?))
     } else {
-        (None, None)
+        (None, None, None)
     };
-    Ok(PeerResult { scene: scene.name.clone(), reference_note, pathlight, peer, agreement })
+    Ok(PeerResult {
+        scene: scene.name.clone(),
+        reference_note,
+        pathlight,
+        peer,
+        peer_low_discrepancy,
+        agreement,
+    })
 }
 
 /// The results as Markdown: one row per pathlight backend and scene.
 pub fn markdown(results: &[PeerResult]) -> String {
     let mut s = String::new();
-    s += "| scene | same image as the peer? | pathlight backend | relMSE compared | pathlight s | Mitsuba s | speed vs Mitsuba (time to equal error) | at equal time | relMSE pathlight | relMSE Mitsuba |\n";
-    s += "|---|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    s += "| scene | same image as the peer? | pathlight backend | relMSE compared | pathlight s | Mitsuba s | speed vs Mitsuba (time to equal error) | at equal time | relMSE pathlight | relMSE Mitsuba | speed vs Mitsuba with ldsampler |\n";
+    s += "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for r in results {
         let same = match &r.agreement {
             Some(a) if a.same() => "yes (z-test passes)".to_string(),
@@ -382,8 +422,13 @@ pub fn markdown(results: &[PeerResult]) -> String {
                 (Some(a), Some(b)) => format!("{:.2}×", b / a),
                 _ => "-".into(),
             };
+            let ratio_low_discrepancy = r
+                .peer_low_discrepancy
+                .as_ref()
+                .and_then(|peer| speed_ratio(p, peer))
+                .map_or("-".into(), |x| format!("{x:.2}×"));
             s += &format!(
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
                 r.scene,
                 same,
                 p.label.trim_start_matches("pathlight "),
@@ -394,10 +439,18 @@ pub fn markdown(results: &[PeerResult]) -> String {
                 time.map_or("-".into(), |t| format!("{t:.1} s")),
                 g(e_pl),
                 g(e_mi),
+                ratio_low_discrepancy,
             );
         }
     }
     s
+}
+
+/// How many times faster `a` reaches the lower error both series reached than `b` does
+/// (time to equal error, `b`'s time over `a`'s).
+fn speed_ratio(a: &Series, b: &Series) -> Option<f64> {
+    let error = a.last()?.0.max(b.last()?.0);
+    Some(b.time_to_error(error)? / a.time_to_error(error)?)
 }
 
 /// Runs `bench/plot_peer.py` over the CSV files (a missing matplotlib is a warning).
