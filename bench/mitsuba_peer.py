@@ -371,9 +371,11 @@ def main():
             if reference.shape[:2] != (args.height, args.width):
                 raise SceneError(f"{args.reference}: {reference.shape[1]}x{reference.shape[0]}, not {args.width}x{args.height}")
             # Warm-up: Dr.Jit traces and compiles the kernel once per scene (and caches it).
-            render(scene, 1, 999_999)
+            # ldsampler takes square powers of two from 4 on (it renders 4 when asked for 1).
+            first_spp = 4 if args.sampler == "ldsampler" else 1
+            render(scene, first_spp, 999_999)
             rows = []
-            spp = 1
+            spp = first_spp
             while spp <= args.max_spp:
                 image, seconds = render(scene, spp, spp)
                 rmse, relmse = errors(image, reference)
@@ -381,7 +383,6 @@ def main():
                 print(f"mitsuba {spp:>6} spp {seconds:>9.3f} s  RMSE {rmse:.5f}  relMSE {relmse:.5f}", file=sys.stderr, flush=True)
                 if seconds >= args.time_limit:
                     break
-                # ldsampler takes square powers of two only (it rounds anything else up).
                 spp *= 4 if args.sampler == "ldsampler" else 2
             with open(args.log, "w", newline="") as f:
                 w = csv.writer(f)
