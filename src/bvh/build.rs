@@ -1,11 +1,18 @@
 //! Binned SAH construction (Wald 2007, "On fast Construction of SAH-based Bounding Volume
-//! Hierarchies"; pbrt-v4 §7.3.2), then depth-first flattening.
+//! Hierarchies"; pbrt-v4 §7.3.2), written straight into the depth-first node array.
+//!
+//! The build keeps no pointer tree: below [`PARALLEL_THRESHOLD`] triangles a subtree is
+//! built sequentially into one contiguous chunk of [`BvhNode`]s; above it the two children
+//! are built on different threads into their own chunks, and the chunks are concatenated
+//! once at the end (Embree's builders and pbrt-v4's `buildRecursive` differ in exactly
+//! this: pbrt-v4 allocates an interior node per split and flattens afterwards).
+//! Primitives are 32-byte records of two 4-wide vectors so that the per-primitive work of
+//! binning and partitioning, which dominates the build, is a handful of SIMD operations.
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
-use crate::geometry::Aabb;
 use crate::scene::layout::BvhNode;
 
 /// SAH bins per split axis.
@@ -20,6 +27,10 @@ const TRAVERSAL_COST: f32 = 0.5;
 const MEDIAN_SPLIT_DEPTH: usize = 32;
 /// The deepest a tree built here can be (root = depth 1).
 pub const MAX_DEPTH: usize = MEDIAN_SPLIT_DEPTH + 32;
+/// Nodes with at least this many triangles bin into [`BIN_SETS`] sets of bins (see
+/// [`cheapest_plane`]); below it merging the sets costs more than it saves.
+const LARGE_NODE: usize = 256;
+const BIN_SETS: usize = 2;
 /// Subtrees with more triangles than this are built in parallel.
 const PARALLEL_THRESHOLD: usize = 4096;
 
@@ -44,237 +55,665 @@ pub struct BvhStats {
     pub build_seconds: f64,
 }
 
+impl BvhStats {
+    fn add(&mut self, other: &BvhStats) {
+        self.leaves += other.leaves;
+        self.max_depth = self.max_depth.max(other.max_depth);
+        self.sah_cost += other.sah_cost;
+    }
+}
+
+/// An axis-aligned box in the x, y, z lanes of two 4-wide vectors; the w lanes carry
+/// whatever the boxes it was grown from carried and are never read.
 #[derive(Clone, Copy)]
-struct Primitive {
-    bounds: Aabb,
-    centroid: Vec3,
-    index: u32,
+struct Bounds4 {
+    min: Vec4,
+    max: Vec4,
 }
 
-enum BuildNode {
-    Leaf { bounds: Aabb, first: usize, count: usize },
-    Interior { bounds: Aabb, axis: usize, children: Box<[BuildNode; 2]> },
-}
+impl Bounds4 {
+    const EMPTY: Bounds4 = Bounds4 { min: Vec4::splat(f32::INFINITY), max: Vec4::splat(f32::NEG_INFINITY) };
 
-impl BuildNode {
-    fn bounds(&self) -> Aabb {
-        match self {
-            BuildNode::Leaf { bounds, .. } | BuildNode::Interior { bounds, .. } => *bounds,
+    #[inline(always)]
+    fn union(self, other: Bounds4) -> Bounds4 {
+        Bounds4 { min: self.min.min(other.min), max: self.max.max(other.max) }
+    }
+
+    #[inline(always)]
+    fn grow(self, p: Vec4) -> Bounds4 {
+        Bounds4 { min: self.min.min(p), max: self.max.max(p) }
+    }
+
+    /// [`crate::geometry::Aabb::surface_area`], the same expression in the same order, so
+    /// the costs and hence the tree are those of the box type the rest of the crate uses.
+    fn surface_area(&self) -> f32 {
+        if self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z {
+            return 0.0;
+        }
+        let d = self.max - self.min;
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+
+    /// [`crate::geometry::Aabb::max_extent_axis`].
+    fn max_extent_axis(&self) -> usize {
+        let d = self.max - self.min;
+        if d.x >= d.y && d.x >= d.z {
+            0
+        } else if d.y >= d.z {
+            1
+        } else {
+            2
         }
     }
+
+    fn node(&self) -> BvhNode {
+        BvhNode {
+            bounds_min: self.min.truncate().to_array(),
+            bounds_max: self.max.truncate().to_array(),
+            ..Default::default()
+        }
+    }
+}
+
+/// A triangle's box, 32 bytes: `lo.xyz` and `hi.xyz` are its bounds, and `lo.w` carries
+/// the triangle's input index as raw bits (Embree's `PrimRef` keeps its primitive ID in the
+/// same place), so one record moves in the partition and no index array moves beside it.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct Primitive {
+    lo: Vec4,
+    hi: Vec4,
+}
+
+impl Primitive {
+    fn new(t: &[Vec3; 3], index: u32) -> Primitive {
+        let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        Primitive { lo: lo.extend(f32::from_bits(index)), hi: hi.extend(0.0) }
+    }
+
+    fn index(&self) -> u32 {
+        self.lo.w.to_bits()
+    }
+
+    fn bounds(&self) -> Bounds4 {
+        Bounds4 { min: self.lo, max: self.hi }
+    }
+
+    /// Twice the box's centre, min + max. Doubling is exact in floating point, so every
+    /// comparison, bin index and axis choice made on it is the one the centroid itself
+    /// would give (bins: (2c − 2c₀)·(s/2) rounds as (c − c₀)·s does), without a multiply
+    /// per primitive per level.
+    #[inline(always)]
+    fn centroid2(&self) -> Vec4 {
+        self.lo + self.hi
+    }
+}
+
+/// A node's primitives' bounds and the bounds of their doubled centroids. The parent's
+/// split computes both for its children while it partitions, so no node makes its own
+/// passes for them.
+#[derive(Clone, Copy)]
+struct Split {
+    bounds: Bounds4,
+    centroid_bounds: Bounds4,
+}
+
+impl Split {
+    fn of(prims: &[Primitive]) -> Split {
+        prims.iter().fold(Split { bounds: Bounds4::EMPTY, centroid_bounds: Bounds4::EMPTY }, |s, p| Split {
+            bounds: s.bounds.union(p.bounds()),
+            centroid_bounds: s.centroid_bounds.grow(p.centroid2()),
+        })
+    }
+}
+
+/// What a node becomes.
+enum Decision {
+    Leaf,
+    /// Split at `mid` (the primitives are partitioned already) along `axis`.
+    Interior {
+        mid: usize,
+        axis: usize,
+        left: Split,
+        right: Split,
+    },
 }
 
 /// Builds the BVH over `triangles` (three vertices each). Requires at least one triangle.
 pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
     let start = Instant::now();
     assert!(!triangles.is_empty(), "a BVH needs at least one triangle");
-    let mut prims: Vec<Primitive> = triangles
-        .iter()
-        .enumerate()
-        .map(|(i, t)| {
-            let bounds = Aabb::from_point(t[0]).grow(t[1]).grow(t[2]);
-            Primitive { bounds, centroid: bounds.centroid(), index: i as u32 }
-        })
-        .collect();
-    let bounds = bounds_of(&prims);
-    let centroid_bounds = centroid_bounds_of(&prims);
-    let root = build_recursive(&mut prims, Split { bounds, centroid_bounds }, 0, 1);
-    let order: Vec<u32> = prims.iter().map(|p| p.index).collect();
-    let mut nodes = Vec::with_capacity(2 * triangles.len());
+    assert!(triangles.len() <= u32::MAX as usize, "triangle indices are 32-bit");
+    let mut prims: Vec<Primitive> =
+        triangles.iter().enumerate().map(|(i, t)| Primitive::new(t, i as u32)).collect();
+    let root = Split::of(&prims);
+    let area = Area { root: root.bounds.surface_area().max(f32::MIN_POSITIVE) as f64 };
+    let tree = build_subtree(&mut prims, root, 0, 1, &area);
+    let mut nodes = Vec::with_capacity(tree.node_count());
     let mut stats = BvhStats { triangles: triangles.len(), ..Default::default() };
-    let root_area = root.bounds().surface_area().max(f32::MIN_POSITIVE) as f64;
-    flatten(&root, &mut nodes, 1, root_area, &mut stats);
+    tree.append_to(&mut nodes, &mut stats);
+    let order: Vec<u32> = prims.iter().map(Primitive::index).collect();
     stats.nodes = nodes.len();
     stats.build_seconds = start.elapsed().as_secs_f64();
     Bvh { nodes, order, stats }
 }
 
-fn bounds_of(prims: &[Primitive]) -> Aabb {
-    prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds))
+/// The root's surface area, the denominator of every node's SAH weight.
+struct Area {
+    root: f64,
 }
 
-fn centroid_bounds_of(prims: &[Primitive]) -> Aabb {
-    prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid))
+/// Depth-first nodes with interior offsets relative to the chunk's first node, and the
+/// statistics of those nodes.
+#[derive(Default)]
+struct Chunk {
+    nodes: Vec<BvhNode>,
+    stats: BvhStats,
 }
 
-/// A node's primitives' bounds and their centroids' bounds. The parent's split computes
-/// both for its children while it partitions, so no node makes its own passes for them
-/// (they were two of the four passes per node).
-#[derive(Clone, Copy)]
-struct Split {
-    bounds: Aabb,
-    centroid_bounds: Aabb,
+/// A subtree built in parallel: either one chunk, or a node whose children were built on
+/// different threads.
+enum Subtree {
+    Chunk(Chunk),
+    Fork { node: BvhNode, stats: BvhStats, children: Box<[Subtree; 2]> },
 }
 
-/// Both children's [`Split`]s, from the primitives either side of `mid`.
-fn splits_of(prims: &[Primitive], mid: usize) -> (Split, Split) {
-    let (l, r) = prims.split_at(mid);
-    (
-        Split { bounds: bounds_of(l), centroid_bounds: centroid_bounds_of(l) },
-        Split { bounds: bounds_of(r), centroid_bounds: centroid_bounds_of(r) },
-    )
+impl Subtree {
+    fn node_count(&self) -> usize {
+        match self {
+            Subtree::Chunk(c) => c.nodes.len(),
+            Subtree::Fork { children, .. } => 1 + children[0].node_count() + children[1].node_count(),
+        }
+    }
+
+    /// Appends the subtree depth-first, moving each chunk's interior offsets to where the
+    /// chunk lands.
+    fn append_to(self, out: &mut Vec<BvhNode>, stats: &mut BvhStats) {
+        match self {
+            Subtree::Chunk(chunk) => {
+                let base = out.len() as u32;
+                out.extend(chunk.nodes.into_iter().map(|mut n| {
+                    if n.triangle_count() == 0 {
+                        n.offset += base;
+                    }
+                    n
+                }));
+                stats.add(&chunk.stats);
+            }
+            Subtree::Fork { node, stats: own, children } => {
+                let index = out.len();
+                out.push(node);
+                stats.add(&own);
+                let [first, second] = *children;
+                first.append_to(out, stats);
+                out[index].offset = out.len() as u32;
+                second.append_to(out, stats);
+            }
+        }
+    }
 }
 
-fn build_recursive(prims: &mut [Primitive], node: Split, offset: usize, depth: usize) -> BuildNode {
-    let Split { bounds, centroid_bounds } = node;
+fn build_subtree(prims: &mut [Primitive], split: Split, offset: usize, depth: usize, area: &Area) -> Subtree {
+    if prims.len() <= PARALLEL_THRESHOLD {
+        // A tree over n triangles has at most 2n − 1 nodes: sized once, never regrown.
+        let mut chunk = Chunk { nodes: Vec::with_capacity(2 * prims.len() - 1), ..Default::default() };
+        build_sequential(prims, split, offset, depth, area, &mut chunk);
+        return Subtree::Chunk(chunk);
+    }
+    match decide(prims, &split, depth) {
+        Decision::Leaf => {
+            let mut chunk = Chunk::default();
+            push_leaf(&split, offset, prims.len(), depth, area, &mut chunk);
+            Subtree::Chunk(chunk)
+        }
+        Decision::Interior { mid, axis, left: left_split, right: right_split } => {
+            let (node, stats) = interior(&split, axis, depth, area);
+            let (left, right) = prims.split_at_mut(mid);
+            let (l, r) = rayon::join(
+                || build_subtree(left, left_split, offset, depth + 1, area),
+                || build_subtree(right, right_split, offset + mid, depth + 1, area),
+            );
+            Subtree::Fork { node, stats, children: Box::new([l, r]) }
+        }
+    }
+}
+
+fn build_sequential(
+    prims: &mut [Primitive],
+    split: Split,
+    offset: usize,
+    depth: usize,
+    area: &Area,
+    chunk: &mut Chunk,
+) {
+    match decide(prims, &split, depth) {
+        Decision::Leaf => push_leaf(&split, offset, prims.len(), depth, area, chunk),
+        Decision::Interior { mid, axis, left: left_split, right: right_split } => {
+            let (node, stats) = interior(&split, axis, depth, area);
+            let index = chunk.nodes.len();
+            chunk.nodes.push(node);
+            chunk.stats.add(&stats);
+            let (left, right) = prims.split_at_mut(mid);
+            build_sequential(left, left_split, offset, depth + 1, area, chunk);
+            chunk.nodes[index].offset = chunk.nodes.len() as u32;
+            build_sequential(right, right_split, offset + mid, depth + 1, area, chunk);
+        }
+    }
+}
+
+/// Relative SAH weight of a node: its area over the root's.
+fn weight(split: &Split, area: &Area) -> f64 {
+    split.bounds.surface_area() as f64 / area.root
+}
+
+fn push_leaf(split: &Split, first: usize, count: usize, depth: usize, area: &Area, chunk: &mut Chunk) {
+    let mut node = split.bounds.node();
+    node.offset = first as u32;
+    node.count_axis = count as u32;
+    chunk.nodes.push(node);
+    chunk.stats.add(&BvhStats {
+        leaves: 1,
+        max_depth: depth,
+        sah_cost: weight(split, area) * count as f64,
+        ..Default::default()
+    });
+}
+
+/// An interior node (its second child's offset is filled in later) and its statistics.
+fn interior(split: &Split, axis: usize, depth: usize, area: &Area) -> (BvhNode, BvhStats) {
+    let mut node = split.bounds.node();
+    node.count_axis = (axis as u32) << 16;
+    let stats = BvhStats {
+        max_depth: depth,
+        sah_cost: weight(split, area) * TRAVERSAL_COST as f64,
+        ..Default::default()
+    };
+    (node, stats)
+}
+
+/// Chooses between a leaf and a split, and partitions for a split.
+fn decide(prims: &mut [Primitive], split: &Split, depth: usize) -> Decision {
     let n = prims.len();
     if n == 1 {
-        return BuildNode::Leaf { bounds, first: offset, count: 1 };
+        return Decision::Leaf;
     }
-    let axis = centroid_bounds.max_extent_axis();
-    let (c_min, c_max) = (centroid_bounds.min[axis], centroid_bounds.max[axis]);
-
-    let (mid, (left_split, right_split)) = if c_max <= c_min {
+    let axis = split.centroid_bounds.max_extent_axis();
+    let (c_min, c_max) = (split.centroid_bounds.min[axis], split.centroid_bounds.max[axis]);
+    let at = |prims: &mut [Primitive], mid: usize| {
+        let (left, right) = prims.split_at(mid);
+        Decision::Interior { mid, axis, left: Split::of(left), right: Split::of(right) }
+    };
+    if c_max <= c_min {
         // All centroids coincide: no split separates them. Keep small sets as a leaf and
         // halve large ones arbitrarily so leaves stay bounded.
         if n <= MAX_LEAF_TRIANGLES {
-            return BuildNode::Leaf { bounds, first: offset, count: n };
+            return Decision::Leaf;
         }
-        (n / 2, splits_of(prims, n / 2))
-    } else if depth >= MEDIAN_SPLIT_DEPTH {
+        return at(prims, n / 2);
+    }
+    if depth >= MEDIAN_SPLIT_DEPTH {
         let mid = median_split(prims, axis);
-        (mid, splits_of(prims, mid))
-    } else {
-        match sah_split(prims, &bounds, axis, c_min, c_max) {
-            Some(split) => split,
-            None => return BuildNode::Leaf { bounds, first: offset, count: n },
+        return at(prims, mid);
+    }
+    let sah = match axis {
+        0 => sah_split::<0>(prims, &split.bounds, c_min, c_max),
+        1 => sah_split::<1>(prims, &split.bounds, c_min, c_max),
+        _ => sah_split::<2>(prims, &split.bounds, c_min, c_max),
+    };
+    match sah {
+        SahOutcome::Split { mid, left, right } => Decision::Interior { mid, axis, left, right },
+        SahOutcome::Leaf => Decision::Leaf,
+        SahOutcome::Median => {
+            let mid = median_split(prims, axis);
+            at(prims, mid)
         }
-    };
-
-    let (left, right) = prims.split_at_mut(mid);
-    let (l, r) = if n > PARALLEL_THRESHOLD {
-        rayon::join(
-            || build_recursive(left, left_split, offset, depth + 1),
-            || build_recursive(right, right_split, offset + mid, depth + 1),
-        )
-    } else {
-        (
-            build_recursive(left, left_split, offset, depth + 1),
-            build_recursive(right, right_split, offset + mid, depth + 1),
-        )
-    };
-    BuildNode::Interior { bounds, axis, children: Box::new([l, r]) }
+    }
 }
 
 fn median_split(prims: &mut [Primitive], axis: usize) -> usize {
     let mid = prims.len() / 2;
-    prims.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+    prims.select_nth_unstable_by(mid, |a, b| a.centroid2()[axis].total_cmp(&b.centroid2()[axis]));
     mid
 }
 
-/// Partitions `prims` at the best binned-SAH plane and returns the split index with both
-/// children's [`Split`]s, or `None` when a leaf is cheaper (and allowed).
-fn sah_split(
-    prims: &mut [Primitive],
-    bounds: &Aabb,
-    axis: usize,
-    c_min: f32,
-    c_max: f32,
-) -> Option<(usize, (Split, Split))> {
-    let n = prims.len();
-    let scale = BIN_COUNT as f32 / (c_max - c_min);
-    let bin_of = |c: f32| (((c - c_min) * scale) as usize).min(BIN_COUNT - 1);
-    let mut counts = [0usize; BIN_COUNT];
-    let mut bin_bounds = [Aabb::EMPTY; BIN_COUNT];
-    for p in prims.iter() {
-        let b = bin_of(p.centroid[axis]);
-        counts[b] += 1;
-        bin_bounds[b] = bin_bounds[b].union(p.bounds);
-    }
-    // Sweep from the right to get the area and count of every right-hand side, then from
-    // the left, costing each of the BIN_COUNT − 1 planes.
-    let mut right_area = [0.0f32; BIN_COUNT];
-    let mut right_count = [0usize; BIN_COUNT];
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-    for i in (1..BIN_COUNT).rev() {
-        acc = acc.union(bin_bounds[i]);
-        cnt += counts[i];
-        right_area[i] = acc.surface_area();
-        right_count[i] = cnt;
-    }
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-    let mut best = (f32::INFINITY, 0usize);
-    for i in 0..BIN_COUNT - 1 {
-        acc = acc.union(bin_bounds[i]);
-        cnt += counts[i];
-        if cnt == 0 || right_count[i + 1] == 0 {
-            continue;
-        }
-        let cost = cnt as f32 * acc.surface_area() + right_count[i + 1] as f32 * right_area[i + 1];
-        if cost < best.0 {
-            best = (cost, i);
-        }
-    }
-    let area = bounds.surface_area().max(f32::MIN_POSITIVE);
-    let split_cost = TRAVERSAL_COST + best.0 / area;
-    let leaf_cost = n as f32;
-    let median = |prims: &mut [Primitive]| {
-        let mid = median_split(prims, axis);
-        (mid, splits_of(prims, mid))
-    };
-    if best.0.is_infinite() {
-        // Every centroid fell into one bin (a tiny spread at large magnitude): split evenly.
-        return Some(median(prims));
-    }
-    if n <= MAX_LEAF_TRIANGLES && leaf_cost <= split_cost {
-        return None;
-    }
-    // Partition, growing each side's centroid bounds on the way; each side's bounds are
-    // the union of its bins.
-    let split_bin = best.1;
-    let mut mid = 0;
-    let (mut left_centroids, mut right_centroids) = (Aabb::EMPTY, Aabb::EMPTY);
-    for i in 0..n {
-        let c = prims[i].centroid;
-        if bin_of(c[axis]) <= split_bin {
-            prims.swap(i, mid);
-            mid += 1;
-            left_centroids = left_centroids.grow(c);
-        } else {
-            right_centroids = right_centroids.grow(c);
-        }
-    }
-    if mid == 0 || mid == n {
-        return Some(median(prims));
-    }
-    let left_bounds = bin_bounds[..=split_bin].iter().fold(Aabb::EMPTY, |b, &x| b.union(x));
-    let right_bounds = bin_bounds[split_bin + 1..].iter().fold(Aabb::EMPTY, |b, &x| b.union(x));
-    Some((
-        mid,
-        (
-            Split { bounds: left_bounds, centroid_bounds: left_centroids },
-            Split { bounds: right_bounds, centroid_bounds: right_centroids },
-        ),
-    ))
+enum SahOutcome {
+    Split {
+        mid: usize,
+        left: Split,
+        right: Split,
+    },
+    /// A leaf is cheaper (and allowed).
+    Leaf,
+    /// No plane separates the primitives (every centroid in one bin, a tiny spread at
+    /// large magnitude): split at the object median.
+    Median,
 }
 
-/// Appends `node` and its subtree depth-first; returns the node's index.
-fn flatten(
-    node: &BuildNode,
-    out: &mut Vec<BvhNode>,
-    depth: usize,
-    root_area: f64,
-    stats: &mut BvhStats,
-) -> usize {
-    let index = out.len();
-    let b = node.bounds();
-    let rel_area = b.surface_area() as f64 / root_area;
-    stats.max_depth = stats.max_depth.max(depth);
-    out.push(BvhNode { bounds_min: b.min.to_array(), bounds_max: b.max.to_array(), ..Default::default() });
-    match node {
-        BuildNode::Leaf { first, count, .. } => {
-            stats.leaves += 1;
-            stats.sah_cost += rel_area * *count as f64;
-            out[index].offset = *first as u32;
-            out[index].count_axis = *count as u32;
+/// The doubled centroid's component on `AXIS` (a constant, so this is one lane extract).
+#[inline(always)]
+fn lane<const AXIS: usize>(v: Vec4) -> f32 {
+    match AXIS {
+        0 => v.x,
+        1 => v.y,
+        _ => v.z,
+    }
+}
+
+/// Which of the BIN_COUNT bins along `AXIS` a primitive falls in: bin i holds the doubled
+/// centroids c with ⌊(c − c_min)·scale⌋ = i, the last bin also the far edge.
+#[derive(Clone, Copy)]
+struct Binning<const AXIS: usize> {
+    c_min: f32,
+    scale: f32,
+}
+
+impl<const AXIS: usize> Binning<AXIS> {
+    fn new(c_min: f32, c_max: f32) -> Self {
+        Binning { c_min, scale: BIN_COUNT as f32 / (c_max - c_min) }
+    }
+
+    /// (c − c_min)·scale, whose floor is the bin.
+    #[inline(always)]
+    fn offset(&self, p: &Primitive) -> f32 {
+        (lane::<AXIS>(p.centroid2()) - self.c_min) * self.scale
+    }
+
+    /// The float-to-int cast saturates (NaN to 0), so the index is in range.
+    #[inline(always)]
+    fn bin(&self, p: &Primitive) -> usize {
+        (self.offset(p) as u32 as usize).min(BIN_COUNT - 1)
+    }
+}
+
+/// The cheapest plane between bins: its cost (each side's triangle count times its area,
+/// summed), the last bin on its left, and both sides' bounds.
+struct Plane {
+    cost: f32,
+    last_left_bin: usize,
+    left: Bounds4,
+    right: Bounds4,
+}
+
+/// Finds the cheapest of the BIN_COUNT − 1 planes on `AXIS` and partitions there.
+fn sah_split<const AXIS: usize>(
+    prims: &mut [Primitive],
+    bounds: &Bounds4,
+    c_min: f32,
+    c_max: f32,
+) -> SahOutcome {
+    let n = prims.len();
+    let binning = Binning::<AXIS>::new(c_min, c_max);
+    let plane = cheapest_plane(prims, binning);
+    let Some(plane) = plane else {
+        return SahOutcome::Median;
+    };
+    let area = bounds.surface_area().max(f32::MIN_POSITIVE);
+    let split_cost = TRAVERSAL_COST + plane.cost / area;
+    if n <= MAX_LEAF_TRIANGLES && n as f32 <= split_cost {
+        return SahOutcome::Leaf;
+    }
+    let (mid, left_centroids, right_centroids) = partition(prims, binning, plane.last_left_bin);
+    if mid == 0 || mid == n {
+        return SahOutcome::Median;
+    }
+    SahOutcome::Split {
+        mid,
+        left: Split { bounds: plane.left, centroid_bounds: left_centroids },
+        right: Split { bounds: plane.right, centroid_bounds: right_centroids },
+    }
+}
+
+/// The cheapest plane from BIN_COUNT bins, or `None` when no plane has primitives on both
+/// sides.
+fn cheapest_plane<const AXIS: usize>(prims: &[Primitive], binning: Binning<AXIS>) -> Option<Plane> {
+    let mut counts = [0u32; BIN_COUNT];
+    let mut bin_bounds = [Bounds4::EMPTY; BIN_COUNT];
+    let bin = |p: &Primitive, counts: &mut [u32; BIN_COUNT], bin_bounds: &mut [Bounds4; BIN_COUNT]| {
+        let b = binning.bin(p);
+        counts[b] += 1;
+        bin_bounds[b] = bin_bounds[b].union(p.bounds());
+    };
+    if prims.len() < LARGE_NODE {
+        prims.iter().for_each(|p| bin(p, &mut counts, &mut bin_bounds));
+    } else {
+        // Neighbouring primitives mostly share a bin, so with one set of bins each update
+        // would wait for the previous one's store: consecutive primitives go to
+        // BIN_SETS different sets, merged after.
+        let mut sets = [([0u32; BIN_COUNT], [Bounds4::EMPTY; BIN_COUNT]); BIN_SETS];
+        let mut groups = prims.chunks_exact(BIN_SETS);
+        for group in &mut groups {
+            for (p, (c, b)) in group.iter().zip(sets.iter_mut()) {
+                bin(p, c, b);
+            }
         }
-        BuildNode::Interior { axis, children, .. } => {
-            stats.sah_cost += rel_area * TRAVERSAL_COST as f64;
-            flatten(&children[0], out, depth + 1, root_area, stats);
-            let second = flatten(&children[1], out, depth + 1, root_area, stats);
-            out[index].offset = second as u32;
-            out[index].count_axis = (*axis as u32) << 16;
+        groups.remainder().iter().for_each(|p| bin(p, &mut counts, &mut bin_bounds));
+        for (c, b) in &sets {
+            for i in 0..BIN_COUNT {
+                counts[i] += c[i];
+                bin_bounds[i] = bin_bounds[i].union(b[i]);
+            }
         }
     }
-    index
+    // Only the occupied bins are swept. An empty bin changes no sum and no box, so a plane
+    // after an empty bin costs exactly what the plane before it did, and only a strictly
+    // cheaper plane replaces the best: skipping them changes no choice. Most nodes are
+    // small (a node of three triangles fills at most three of the sixteen bins), and for
+    // them sweeping every bin cost more than binning.
+    let mut occupied = [0usize; BIN_COUNT];
+    let mut m = 0;
+    for (i, &count) in counts.iter().enumerate() {
+        // Written unconditionally, kept when occupied: no branch to mispredict.
+        occupied[m] = i;
+        m += (count != 0) as usize;
+    }
+    let occupied = &occupied[..m];
+    // right_area[j], right_count[j]: of the bins occupied[j..].
+    let mut right_area = [0.0f32; BIN_COUNT];
+    let mut right_count = [0u32; BIN_COUNT];
+    let (mut acc, mut cnt) = (Bounds4::EMPTY, 0);
+    for j in (1..m).rev() {
+        acc = acc.union(bin_bounds[occupied[j]]);
+        cnt += counts[occupied[j]];
+        right_area[j] = acc.surface_area();
+        right_count[j] = cnt;
+    }
+    let (mut acc, mut cnt) = (Bounds4::EMPTY, 0);
+    let mut best = (f32::INFINITY, 0usize);
+    for j in 0..m.saturating_sub(1) {
+        acc = acc.union(bin_bounds[occupied[j]]);
+        cnt += counts[occupied[j]];
+        let cost = cnt as f32 * acc.surface_area() + right_count[j + 1] as f32 * right_area[j + 1];
+        if cost < best.0 {
+            best = (cost, j);
+        }
+    }
+    if best.0.is_infinite() {
+        return None;
+    }
+    let union_of = |bins: &[usize]| bins.iter().fold(Bounds4::EMPTY, |b, &i| b.union(bin_bounds[i]));
+    let (left, right) = (union_of(&occupied[..=best.1]), union_of(&occupied[best.1 + 1..]));
+    Some(Plane { cost: best.0, last_left_bin: occupied[best.1], left, right })
+}
+
+/// Partitions in place (Lomuto: left primitives keep their order) so that the primitives
+/// in bins up to `last_left_bin` come first; returns their count and both sides' centroid
+/// bounds. A primitive goes left when its offset x has ⌊x⌋ ≤ last_left_bin, that is when
+/// x ≥ last_left_bin + 1 is false (a NaN offset, bin 0, goes left too), which needs no
+/// conversion to an integer.
+fn partition<const AXIS: usize>(
+    prims: &mut [Primitive],
+    binning: Binning<AXIS>,
+    last_left_bin: usize,
+) -> (usize, Bounds4, Bounds4) {
+    let threshold = (last_left_bin + 1) as f32;
+    let mut mid = 0;
+    let (mut left_centroids, mut right_centroids) = (Bounds4::EMPTY, Bounds4::EMPTY);
+    for i in 0..prims.len() {
+        let (p, q) = (prims[i], prims[mid]);
+        let c = p.centroid2();
+        let goes_right = binning.offset(&p) >= threshold;
+        let left = glam::BVec4A::splat(!goes_right);
+        // Without a branch (which side a primitive goes is a coin toss deep in the tree):
+        // a left primitive swaps with the one at `mid`, a right one writes both back.
+        prims[mid] = Primitive { lo: Vec4::select(left, p.lo, q.lo), hi: Vec4::select(left, p.hi, q.hi) };
+        prims[i] = Primitive { lo: Vec4::select(left, q.lo, p.lo), hi: Vec4::select(left, q.hi, p.hi) };
+        mid += !goes_right as usize;
+        left_centroids.min = left_centroids.min.min(Vec4::select(left, c, Vec4::INFINITY));
+        left_centroids.max = left_centroids.max.max(Vec4::select(left, c, Vec4::NEG_INFINITY));
+        right_centroids.min = right_centroids.min.min(Vec4::select(left, Vec4::INFINITY, c));
+        right_centroids.max = right_centroids.max.max(Vec4::select(left, Vec4::NEG_INFINITY, c));
+    }
+    (mid, left_centroids, right_centroids)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The textbook sweep over all BIN_COUNT − 1 planes (this builder's before occupied-bin
+    /// sweeps): (cost, last left bin, left bounds, right bounds).
+    fn reference_plane<const AXIS: usize>(
+        prims: &[Primitive],
+        binning: Binning<AXIS>,
+    ) -> Option<(f32, usize, Bounds4, Bounds4)> {
+        let mut counts = [0u32; BIN_COUNT];
+        let mut bins = [Bounds4::EMPTY; BIN_COUNT];
+        for p in prims {
+            let b = binning.bin(p);
+            counts[b] += 1;
+            bins[b] = bins[b].union(p.bounds());
+        }
+        let mut best = None::<(f32, usize)>;
+        for plane in 0..BIN_COUNT - 1 {
+            let (l, r) = (&bins[..=plane], &bins[plane + 1..]);
+            let (nl, nr): (u32, u32) = (counts[..=plane].iter().sum(), counts[plane + 1..].iter().sum());
+            if nl == 0 || nr == 0 {
+                continue;
+            }
+            let union = |b: &[Bounds4]| b.iter().fold(Bounds4::EMPTY, |a, &x| a.union(x));
+            let cost = nl as f32 * union(l).surface_area() + nr as f32 * union(r).surface_area();
+            if best.is_none_or(|(c, _)| cost < c) {
+                best = Some((cost, plane));
+            }
+        }
+        let (cost, plane) = best?;
+        let union = |b: &[Bounds4]| b.iter().fold(Bounds4::EMPTY, |a, &x| a.union(x));
+        Some((cost, plane, union(&bins[..=plane]), union(&bins[plane + 1..])))
+    }
+
+    fn xyz_bits(b: &Bounds4) -> [u32; 6] {
+        let (lo, hi) = (b.min.truncate().to_array(), b.max.truncate().to_array());
+        [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]].map(f32::to_bits)
+    }
+
+    /// Random triangles in clusters, so that nodes have empty bins, crowded bins and ties.
+    fn random_prims(seed: u64, n: usize) -> Vec<Primitive> {
+        let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let clusters: Vec<Vec3> = (0..1 + n % 5).map(|_| Vec3::new(next(), next(), next()) * 10.0).collect();
+        (0..n)
+            .map(|i| {
+                let c = clusters[i % clusters.len()] + Vec3::new(next(), next(), next());
+                let t = [
+                    c,
+                    c + Vec3::new(next(), next(), next()) * 0.3,
+                    c + Vec3::new(next(), 0.0, next()) * 0.3,
+                ];
+                Primitive::new(&t, i as u32)
+            })
+            .collect()
+    }
+
+    /// Unit triangles at x = 0, 1, …, k − 1, `copies` of each, in a scrambled order: with
+    /// k − 1 dividing 8 every bin offset is an exact integer, so primitives sit exactly on
+    /// bin boundaries, and the symmetric row makes planes cost exactly the same.
+    fn lattice_prims(k: u32, copies: u32, seed: u64) -> Vec<Primitive> {
+        let mut prims: Vec<Primitive> = (0..k * copies)
+            .map(|j| {
+                let x = (j % k) as f32;
+                Primitive::new(
+                    &[Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)],
+                    j,
+                )
+            })
+            .collect();
+        let len = prims.len();
+        for i in 0..len {
+            prims.swap(i, (seed as usize * 7 + i * 13) % len);
+        }
+        prims
+    }
+
+    #[test]
+    fn occupied_bin_sweep_and_branchless_partition_match_the_textbook_ones() {
+        // Random clusters at sizes on both sides of LARGE_NODE (one set of bins or two) and
+        // odd ones (a primitive left over after the pairs); then lattices with exact ties.
+        let random = (0..400u64)
+            .map(|s| (s, random_prims(s, [2, 3, 5, 8, 17, 64, 255, 256, 257, 701][s as usize % 10])));
+        let lattices = [3, 5, 9, 17].into_iter().flat_map(|k| {
+            (1..4).map(move |copies| (u64::from(k * copies), lattice_prims(k, copies, u64::from(k))))
+        });
+        for (seed, mut prims) in random.chain(lattices) {
+            let n = prims.len();
+            let split = Split::of(&prims);
+            let axis = split.centroid_bounds.max_extent_axis();
+            let (c_min, c_max) = (split.centroid_bounds.min[axis], split.centroid_bounds.max[axis]);
+            assert!(c_max > c_min);
+            macro_rules! check {
+                ($axis:literal) => {{
+                    let binning = Binning::<$axis>::new(c_min, c_max);
+                    let plane = cheapest_plane(&prims, binning);
+                    let reference = reference_plane(&prims, binning);
+                    match (&plane, &reference) {
+                        (None, None) => {}
+                        (Some(p), Some(r)) => {
+                            assert_eq!(p.cost.to_bits(), r.0.to_bits(), "seed {seed}, n {n}: cost");
+                            assert_eq!(p.last_left_bin, r.1, "seed {seed}, n {n}: plane");
+                            assert_eq!(xyz_bits(&p.left), xyz_bits(&r.2), "seed {seed}, n {n}: left bounds");
+                            assert_eq!(
+                                xyz_bits(&p.right),
+                                xyz_bits(&r.3),
+                                "seed {seed}, n {n}: right bounds"
+                            );
+                        }
+                        _ => panic!("seed {seed}, n {n}: one sweep found a plane, the other none"),
+                    }
+                    if let Some(p) = plane {
+                        // The branchy Lomuto partition by bin index.
+                        let mut expected = prims.clone();
+                        let mut expected_mid = 0;
+                        for i in 0..expected.len() {
+                            if binning.bin(&expected[i]) <= p.last_left_bin {
+                                expected.swap(i, expected_mid);
+                                expected_mid += 1;
+                            }
+                        }
+                        let (mid, left_c, right_c) = partition(&mut prims, binning, p.last_left_bin);
+                        assert_eq!(mid, expected_mid, "seed {seed}, n {n}: split index");
+                        let order = |v: &[Primitive]| v.iter().map(Primitive::index).collect::<Vec<_>>();
+                        assert_eq!(order(&prims), order(&expected), "seed {seed}, n {n}: order");
+                        let (l, r) = (Split::of(&prims[..mid]), Split::of(&prims[mid..]));
+                        assert_eq!(xyz_bits(&left_c), xyz_bits(&l.centroid_bounds));
+                        assert_eq!(xyz_bits(&right_c), xyz_bits(&r.centroid_bounds));
+                    }
+                }};
+            }
+            match axis {
+                0 => check!(0),
+                1 => check!(1),
+                _ => check!(2),
+            }
+        }
+    }
+
+    #[test]
+    fn the_triangle_index_rides_in_the_w_lane() {
+        for index in [0, 1, 12345, 1 << 23, u32::MAX >> 1] {
+            let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
+            assert_eq!(Primitive::new(&t, index).index(), index);
+        }
+    }
 }

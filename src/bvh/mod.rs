@@ -1,6 +1,6 @@
-//! Bounding volume hierarchy over triangles: built by binned SAH in a pointer tree,
-//! flattened into the 32-byte [`BvhNode`](crate::scene::layout::BvhNode) array that the GPU
-//! traverses, and collapsed from it into the CPU's 4-wide [`WideBvh`].
+//! Bounding volume hierarchy over triangles: built by binned SAH straight into the 32-byte
+//! [`BvhNode`](crate::scene::layout::BvhNode) array that the GPU traverses, and collapsed
+//! from it into the CPU's 4-wide [`WideBvh`].
 //!
 //! WGSL twin of `traverse.rs`: `shaders/bvh.wgsl`.
 
