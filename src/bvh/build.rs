@@ -1,11 +1,11 @@
 //! Binned SAH construction (Wald 2007, "On fast Construction of SAH-based Bounding Volume
 //! Hierarchies"; pbrt-v4 §7.3.2), written straight into the depth-first node array.
 //!
-//! The build keeps no pointer tree: below [`PARALLEL_THRESHOLD`] triangles a subtree is
-//! built sequentially into one contiguous chunk of [`BvhNode`]s; above it the two children
-//! are built on different threads into their own chunks, and the chunks are concatenated
-//! once at the end (Embree's builders and pbrt-v4's `buildRecursive` differ in exactly
-//! this: pbrt-v4 allocates an interior node per split and flattens afterwards).
+//! The build keeps no pointer tree (pbrt-v4's `buildRecursive` allocates an interior node
+//! per split and flattens afterwards): every subtree of n triangles owns 2n − 1 slots of
+//! one array, its most nodes. Below [`PARALLEL_THRESHOLD`] triangles a subtree is built
+//! sequentially into its slots, depth-first; above it the two children are built on
+//! different threads into theirs. One pass at the end closes the gaps ([`Subtree::compact`]).
 //! Primitives are 32-byte records of two 4-wide vectors so that the per-primitive work of
 //! binning and partitioning, which dominates the build, is a handful of SIMD operations.
 
@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use glam::{Vec3, Vec4};
 
+use crate::geometry::Aabb;
 use crate::scene::layout::BvhNode;
 
 /// SAH bins per split axis.
@@ -84,34 +85,20 @@ impl Bounds4 {
         Bounds4 { min: self.min.min(p), max: self.max.max(p) }
     }
 
-    /// [`crate::geometry::Aabb::surface_area`], the same expression in the same order, so
-    /// the costs and hence the tree are those of the box type the rest of the crate uses.
-    fn surface_area(&self) -> f32 {
-        if self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z {
-            return 0.0;
-        }
-        let d = self.max - self.min;
-        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    /// The box as the crate's box type, whose area and longest axis the SAH uses.
+    #[inline(always)]
+    fn aabb(&self) -> Aabb {
+        Aabb { min: self.min.truncate(), max: self.max.truncate() }
     }
 
-    /// [`crate::geometry::Aabb::max_extent_axis`].
-    fn max_extent_axis(&self) -> usize {
-        let d = self.max - self.min;
-        if d.x >= d.y && d.x >= d.z {
-            0
-        } else if d.y >= d.z {
-            1
-        } else {
-            2
-        }
+    #[inline(always)]
+    fn surface_area(&self) -> f32 {
+        self.aabb().surface_area()
     }
 
     fn node(&self) -> BvhNode {
-        BvhNode {
-            bounds_min: self.min.truncate().to_array(),
-            bounds_max: self.max.truncate().to_array(),
-            ..Default::default()
-        }
+        let b = self.aabb();
+        BvhNode { bounds_min: b.min.to_array(), bounds_max: b.max.to_array(), ..Default::default() }
     }
 }
 
@@ -187,13 +174,13 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
     let mut prims: Vec<Primitive> =
         triangles.iter().enumerate().map(|(i, t)| Primitive::new(t, i as u32)).collect();
     let root = Split::of(&prims);
-    let area = Area { root: root.bounds.surface_area().max(f32::MIN_POSITIVE) as f64 };
+    let root_area = root.bounds.surface_area().max(f32::MIN_POSITIVE) as f64;
     // Every subtree of n triangles gets 2n − 1 slots, its most nodes, so parallel subtrees
     // write straight into disjoint parts of the final array; one pass then closes the gaps.
     // The allocation is zeroed by the kernel as pages are first written, so slots no node
     // lands in cost nothing (a copy into a fresh array cost 15% of the build in page faults).
     let mut nodes: Vec<BvhNode> = bytemuck::allocation::zeroed_vec(2 * triangles.len() - 1);
-    let tree = build_subtree(&mut prims, root, 0, 1, &area, &mut nodes, 0);
+    let tree = build_subtree(&mut prims, root, 0, 1, root_area, &mut nodes, 0);
     let mut stats = BvhStats { triangles: triangles.len(), ..Default::default() };
     let len = tree.compact(&mut nodes, 0, &mut stats);
     nodes.truncate(len);
@@ -202,11 +189,6 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
     stats.nodes = nodes.len();
     stats.build_seconds = start.elapsed().as_secs_f64();
     Bvh { nodes, order, stats }
-}
-
-/// The root's surface area, the denominator of every node's SAH weight.
-struct Area {
-    root: f64,
 }
 
 /// A subtree built sequentially: its nodes, depth-first from `nodes[0]`, with interior
@@ -271,36 +253,36 @@ fn build_subtree(
     split: Split,
     offset: usize,
     depth: usize,
-    area: &Area,
+    root_area: f64,
     slots: &mut [BvhNode],
     slots_start: usize,
 ) -> Subtree {
     let n = prims.len();
     if n <= PARALLEL_THRESHOLD {
         let mut chunk = Chunk { nodes: slots, len: 0, stats: BvhStats::default() };
-        build_sequential(prims, split, offset, depth, area, &mut chunk);
+        build_sequential(prims, split, offset, depth, root_area, &mut chunk);
         return Subtree::Chunk { start: slots_start, len: chunk.len, stats: chunk.stats };
     }
     match decide(prims, &split, depth) {
         Decision::Leaf => {
-            let (node, stats) = leaf(&split, offset, n, depth, area);
+            let (node, stats) = leaf(&split, offset, n, depth, root_area);
             slots[0] = node;
             Subtree::Chunk { start: slots_start, len: 1, stats }
         }
         Decision::Interior { mid, axis, left: left_split, right: right_split } => {
-            let (node, stats) = interior(&split, axis, depth, area);
+            let (node, stats) = interior(&split, axis, depth, root_area);
             slots[0] = node;
             let (left_slots, right_slots) = slots[1..].split_at_mut(2 * mid - 1);
             let (left, right) = prims.split_at_mut(mid);
             let (l, r) = rayon::join(
-                || build_subtree(left, left_split, offset, depth + 1, area, left_slots, slots_start + 1),
+                || build_subtree(left, left_split, offset, depth + 1, root_area, left_slots, slots_start + 1),
                 || {
                     build_subtree(
                         right,
                         right_split,
                         offset + mid,
                         depth + 1,
-                        area,
+                        root_area,
                         right_slots,
                         slots_start + 2 * mid,
                     )
@@ -316,51 +298,51 @@ fn build_sequential(
     split: Split,
     offset: usize,
     depth: usize,
-    area: &Area,
+    root_area: f64,
     chunk: &mut Chunk,
 ) {
     match decide(prims, &split, depth) {
         Decision::Leaf => {
-            let (node, stats) = leaf(&split, offset, prims.len(), depth, area);
+            let (node, stats) = leaf(&split, offset, prims.len(), depth, root_area);
             chunk.push(node, stats);
         }
         Decision::Interior { mid, axis, left: left_split, right: right_split } => {
-            let (node, stats) = interior(&split, axis, depth, area);
+            let (node, stats) = interior(&split, axis, depth, root_area);
             let index = chunk.push(node, stats);
             let (left, right) = prims.split_at_mut(mid);
-            build_sequential(left, left_split, offset, depth + 1, area, chunk);
+            build_sequential(left, left_split, offset, depth + 1, root_area, chunk);
             chunk.nodes[index].offset = chunk.len as u32;
-            build_sequential(right, right_split, offset + mid, depth + 1, area, chunk);
+            build_sequential(right, right_split, offset + mid, depth + 1, root_area, chunk);
         }
     }
 }
 
 /// Relative SAH weight of a node: its area over the root's.
-fn weight(split: &Split, area: &Area) -> f64 {
-    split.bounds.surface_area() as f64 / area.root
+fn weight(split: &Split, root_area: f64) -> f64 {
+    split.bounds.surface_area() as f64 / root_area
 }
 
 /// A leaf over `count` triangles from `first`, and its statistics.
-fn leaf(split: &Split, first: usize, count: usize, depth: usize, area: &Area) -> (BvhNode, BvhStats) {
+fn leaf(split: &Split, first: usize, count: usize, depth: usize, root_area: f64) -> (BvhNode, BvhStats) {
     let mut node = split.bounds.node();
     node.offset = first as u32;
     node.count_axis = count as u32;
     let stats = BvhStats {
         leaves: 1,
         max_depth: depth,
-        sah_cost: weight(split, area) * count as f64,
+        sah_cost: weight(split, root_area) * count as f64,
         ..Default::default()
     };
     (node, stats)
 }
 
 /// An interior node (its second child's offset is filled in later) and its statistics.
-fn interior(split: &Split, axis: usize, depth: usize, area: &Area) -> (BvhNode, BvhStats) {
+fn interior(split: &Split, axis: usize, depth: usize, root_area: f64) -> (BvhNode, BvhStats) {
     let mut node = split.bounds.node();
     node.count_axis = (axis as u32) << 16;
     let stats = BvhStats {
         max_depth: depth,
-        sah_cost: weight(split, area) * TRAVERSAL_COST as f64,
+        sah_cost: weight(split, root_area) * TRAVERSAL_COST as f64,
         ..Default::default()
     };
     (node, stats)
@@ -372,56 +354,37 @@ fn decide(prims: &mut [Primitive], split: &Split, depth: usize) -> Decision {
     if n == 1 {
         return Decision::Leaf;
     }
-    let axis = split.centroid_bounds.max_extent_axis();
+    let axis = split.centroid_bounds.aabb().max_extent_axis();
     let (c_min, c_max) = (split.centroid_bounds.min[axis], split.centroid_bounds.max[axis]);
-    let at = |prims: &mut [Primitive], mid: usize| {
-        let (left, right) = prims.split_at(mid);
-        Decision::Interior { mid, axis, left: Split::of(left), right: Split::of(right) }
-    };
     if c_max <= c_min {
         // All centroids coincide: no split separates them. Keep small sets as a leaf and
         // halve large ones arbitrarily so leaves stay bounded.
         if n <= MAX_LEAF_TRIANGLES {
             return Decision::Leaf;
         }
-        return at(prims, n / 2);
+        return split_at(prims, n / 2, axis);
     }
     if depth >= MEDIAN_SPLIT_DEPTH {
-        let mid = median_split(prims, axis);
-        return at(prims, mid);
+        return split_at_median(prims, axis);
     }
-    let sah = match axis {
+    match axis {
         0 => sah_split::<0>(prims, &split.bounds, c_min, c_max),
         1 => sah_split::<1>(prims, &split.bounds, c_min, c_max),
         _ => sah_split::<2>(prims, &split.bounds, c_min, c_max),
-    };
-    match sah {
-        SahOutcome::Split { mid, left, right } => Decision::Interior { mid, axis, left, right },
-        SahOutcome::Leaf => Decision::Leaf,
-        SahOutcome::Median => {
-            let mid = median_split(prims, axis);
-            at(prims, mid)
-        }
     }
 }
 
-fn median_split(prims: &mut [Primitive], axis: usize) -> usize {
-    let mid = prims.len() / 2;
-    prims.select_nth_unstable_by(mid, |a, b| a.centroid2()[axis].total_cmp(&b.centroid2()[axis]));
-    mid
+/// A split at `mid`, both sides' bounds gathered from their primitives.
+fn split_at(prims: &[Primitive], mid: usize, axis: usize) -> Decision {
+    let (left, right) = prims.split_at(mid);
+    Decision::Interior { mid, axis, left: Split::of(left), right: Split::of(right) }
 }
 
-enum SahOutcome {
-    Split {
-        mid: usize,
-        left: Split,
-        right: Split,
-    },
-    /// A leaf is cheaper (and allowed).
-    Leaf,
-    /// No plane separates the primitives (every centroid in one bin, a tiny spread at
-    /// large magnitude): split at the object median.
-    Median,
+/// A split at the object median along `axis`.
+fn split_at_median(prims: &mut [Primitive], axis: usize) -> Decision {
+    let mid = prims.len() / 2;
+    prims.select_nth_unstable_by(mid, |a, b| a.centroid2()[axis].total_cmp(&b.centroid2()[axis]));
+    split_at(prims, mid, axis)
 }
 
 /// The doubled centroid's component on `AXIS` (a constant, so this is one lane extract).
@@ -469,30 +432,33 @@ struct Plane {
     right: Bounds4,
 }
 
-/// Finds the cheapest of the BIN_COUNT − 1 planes on `AXIS` and partitions there.
+/// Finds the cheapest of the BIN_COUNT − 1 planes on `AXIS` and partitions there; a leaf
+/// where that is cheaper (and allowed); the object median where no plane separates the
+/// primitives (every centroid in one bin: a tiny spread at large magnitude).
 fn sah_split<const AXIS: usize>(
     prims: &mut [Primitive],
     bounds: &Bounds4,
     c_min: f32,
     c_max: f32,
-) -> SahOutcome {
+) -> Decision {
     let n = prims.len();
     let binning = Binning::<AXIS>::new(c_min, c_max);
     let plane = cheapest_plane(prims, binning);
     let Some(plane) = plane else {
-        return SahOutcome::Median;
+        return split_at_median(prims, AXIS);
     };
     let area = bounds.surface_area().max(f32::MIN_POSITIVE);
     let split_cost = TRAVERSAL_COST + plane.cost / area;
     if n <= MAX_LEAF_TRIANGLES && n as f32 <= split_cost {
-        return SahOutcome::Leaf;
+        return Decision::Leaf;
     }
     let (mid, left_centroids, right_centroids) = partition(prims, binning, plane.last_left_bin);
     if mid == 0 || mid == n {
-        return SahOutcome::Median;
+        return split_at_median(prims, AXIS);
     }
-    SahOutcome::Split {
+    Decision::Interior {
         mid,
+        axis: AXIS,
         left: Split { bounds: plane.left, centroid_bounds: left_centroids },
         right: Split { bounds: plane.right, centroid_bounds: right_centroids },
     }
@@ -694,7 +660,7 @@ mod tests {
         for (seed, mut prims) in random.chain(lattices) {
             let n = prims.len();
             let split = Split::of(&prims);
-            let axis = split.centroid_bounds.max_extent_axis();
+            let axis = split.centroid_bounds.aabb().max_extent_axis();
             let (c_min, c_max) = (split.centroid_bounds.min[axis], split.centroid_bounds.max[axis]);
             assert!(c_max > c_min);
             macro_rules! check {
