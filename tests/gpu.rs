@@ -555,3 +555,37 @@ fn textured_models_gpu_match_cpu() {
         same_seed_agrees_scene(&name, &scene, 1e-3);
     }
 }
+
+#[test]
+fn register_and_array_traversal_stacks_give_the_same_image() {
+    // The traversal keeps up to REGISTER_STACK_SIZE deferred children in registers and starts
+    // over with its array stack when it needs more (shaders/bvh.wgsl). Both visit the same
+    // leaves in the same order, so lowering the limit, to 0 (always the array stack) or to 2
+    // (the 10⁴-triangle spheres overflow it on most rays), must leave every pixel's statistics
+    // bit for bit the same: the same triangle and barycentrics from the same arithmetic.
+    let Some(ctx) = common::gpu() else { return };
+    let (size, spp) = (24, 4);
+    let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
+    let render = |limit: u32| {
+        let kernel = ctx.kernel_with_register_stack_limit(scene.features, limit).unwrap();
+        let mut backend =
+            GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &settings(size, spp, 3)).unwrap();
+        let film = common::render(&mut backend, spp);
+        (film, backend.first_hits().unwrap())
+    };
+    let (registers, registers_hits) = render(pathlight::gpu::REGISTER_STACK_SIZE);
+    for limit in [0, 2] {
+        let (array, array_hits) = render(limit);
+        let differing = registers
+            .pixels
+            .iter()
+            .zip(&array.pixels)
+            .filter(|(a, b)| bytemuck::bytes_of(*a) != bytemuck::bytes_of(*b))
+            .count();
+        assert_eq!(differing, 0, "limit {limit}: {differing} of {} pixels differ", size * size);
+        assert!(
+            bytemuck::cast_slice::<_, u8>(&registers_hits) == bytemuck::cast_slice::<_, u8>(&array_hits),
+            "limit {limit}: the first hits differ"
+        );
+    }
+}

@@ -91,8 +91,13 @@ pub struct GpuContext {
     module: wgpu::ShaderModule,
     /// Errors wgpu reported outside any error scope (kept, then returned by `check`).
     uncaptured: Arc<Mutex<Vec<String>>>,
-    kernels: Mutex<HashMap<SceneFeatures, Arc<Kernel>>>,
+    /// By the scene features and the register stack limit they were built for.
+    kernels: Mutex<HashMap<(SceneFeatures, u32), Arc<Kernel>>>,
 }
+
+/// Deferred children the traversal keeps in registers before it starts over with its array
+/// stack (`traverse` in shaders/bvh.wgsl, which explains why; checked against the WGSL).
+pub const REGISTER_STACK_SIZE: u32 = 8;
 
 impl GpuContext {
     /// Opens the best Vulkan adapter, or the first whose name contains `device_filter`
@@ -208,15 +213,27 @@ impl GpuContext {
 
     /// The kernels specialised to `features`, built on first use and cached.
     pub fn kernel(&self, features: SceneFeatures) -> Result<Arc<Kernel>> {
+        self.kernel_with_register_stack_limit(features, REGISTER_STACK_SIZE)
+    }
+
+    /// [`GpuContext::kernel`] whose traversal falls back from its register stack to the
+    /// array stack after `limit` deferred children instead of [`REGISTER_STACK_SIZE`]
+    /// (`traverse` in shaders/bvh.wgsl); the image must not depend on it (tests).
+    pub fn kernel_with_register_stack_limit(
+        &self,
+        features: SceneFeatures,
+        limit: u32,
+    ) -> Result<Arc<Kernel>> {
         let mut cache = self.kernels.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(k) = cache.get(&features) {
+        if let Some(k) = cache.get(&(features, limit)) {
             return Ok(k.clone());
         }
-        let constants: Vec<(&str, f64)> = features
+        let mut constants: Vec<(&str, f64)> = features
             .pipeline_constants()
             .iter()
             .map(|(name, on)| (*name, if *on { 1.0 } else { 0.0 }))
             .collect();
+        constants.push(("REGISTER_STACK_LIMIT", limit as f64));
         let build = |entry: &str| -> Result<(wgpu::ComputePipeline, f64)> {
             let start = Instant::now();
             let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -239,7 +256,7 @@ impl GpuContext {
         let (render, build_seconds) = build("render")?;
         let (first_hit, _) = build("first_hit")?;
         let kernel = Arc::new(Kernel { render, first_hit, build_seconds });
-        cache.insert(features, kernel.clone());
+        cache.insert((features, limit), kernel.clone());
         Ok(kernel)
     }
 

@@ -6,5 +6,7 @@ pub mod context;
 mod renderer;
 pub mod shader;
 
-pub use context::{describe_adapter, enumerate_adapters, hardware_adapter, GpuContext, Kernel};
+pub use context::{
+    describe_adapter, enumerate_adapters, hardware_adapter, GpuContext, Kernel, REGISTER_STACK_SIZE,
+};
 pub use renderer::GpuBackend;

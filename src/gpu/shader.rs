@@ -153,6 +153,7 @@ mod tests {
             ("DISPLAY_RELATIVE_ERROR", layout::DISPLAY_RELATIVE_ERROR as f64),
             ("PROJECTION_ORTHOGRAPHIC", layout::PROJECTION_ORTHOGRAPHIC as f64),
             ("TRAVERSAL_STACK_SIZE", crate::bvh::TRAVERSAL_STACK_SIZE as f64),
+            ("REGISTER_STACK_SIZE", crate::gpu::REGISTER_STACK_SIZE as f64),
             ("MAX_BOUNCES_GUARD", crate::cpu::MAX_BOUNCES_GUARD as f64),
             ("RR_MAX_SURVIVAL", crate::cpu::RR_MAX_SURVIVAL as f64),
             ("LOBE_SELECTION_FLOOR", crate::bsdf::LOBE_SELECTION_FLOOR as f64),
