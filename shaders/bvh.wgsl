@@ -50,14 +50,28 @@ fn visit_leaf(leaf: BvhNode, pre: TraversalPrecomp, any_hit: bool, alpha_seed: u
     return false;
 }
 
-// The entry distances (−1: missed) of interior node `current`'s two children, the first
-// stored right after it, the second at its offset.
-fn child_entries(pre: TraversalPrecomp, t_max: f32, current: u32, node: BvhNode) -> vec2<f32> {
-    let first = nodes[current + 1u];
-    let second = nodes[node.offset];
-    return vec2<f32>(
-        box_entry(pre.boxes, t_max, first.bounds_min, first.bounds_max),
-        box_entry(pre.boxes, t_max, second.bounds_min, second.bounds_max),
+// Where traversal goes from interior node `current`: the child to visit next (`descend`
+// false when the ray misses both) and, when it overlaps both, the farther one to defer.
+struct ChildStep {
+    next: u32,
+    descend: bool,
+    deferred: u32,
+    defer: bool,
+}
+
+// Both children's boxes are tested at their parent; the first is stored right after it, the
+// second at its offset. The nearer of two overlapped children goes first (ties: the first).
+fn child_step(pre: TraversalPrecomp, t_max: f32, current: u32, node: BvhNode) -> ChildStep {
+    let first = current + 1u;
+    let second = node.offset;
+    let a = box_entry(pre.boxes, t_max, nodes[first].bounds_min, nodes[first].bounds_max);
+    let b = box_entry(pre.boxes, t_max, nodes[second].bounds_min, nodes[second].bounds_max);
+    let first_next = a >= 0.0 && (b < 0.0 || a <= b);
+    return ChildStep(
+        select(second, first, first_next),
+        a >= 0.0 || b >= 0.0,
+        select(first, second, first_next),
+        a >= 0.0 && b >= 0.0,
     );
 }
 
@@ -86,22 +100,13 @@ fn traverse_with_stack(ray_in: Ray, any_hit: bool, alpha_seed: u32) -> ClosestHi
                 return best;
             }
         } else {
-            let first = current + 1u;
-            let second = node.offset;
-            let e = child_entries(pre, ray.t_max, current, node);
-            if (e.x >= 0.0 && e.y >= 0.0) {
-                let first_nearer = e.x <= e.y;
-                stack[sp] = select(first, second, first_nearer);
+            let step = child_step(pre, ray.t_max, current, node);
+            if (step.defer) {
+                stack[sp] = step.deferred;
                 sp += 1u;
-                current = select(second, first, first_nearer);
-                descend = true;
-            } else if (e.x >= 0.0) {
-                current = first;
-                descend = true;
-            } else if (e.y >= 0.0) {
-                current = second;
-                descend = true;
             }
+            current = step.next;
+            descend = step.descend;
         }
         if (descend) {
             continue;
@@ -146,26 +151,17 @@ fn traverse_in_registers(ray_in: Ray, any_hit: bool, alpha_seed: u32) -> Registe
                 return RegisterTraversal(best, false);
             }
         } else {
-            let first = current + 1u;
-            let second = node.offset;
-            let e = child_entries(pre, ray.t_max, current, node);
-            if (e.x >= 0.0 && e.y >= 0.0) {
+            let step = child_step(pre, ray.t_max, current, node);
+            if (step.defer) {
                 if (sp >= min(REGISTER_STACK_LIMIT, REGISTER_STACK_SIZE)) {
                     return RegisterTraversal(best, true);
                 }
-                let first_nearer = e.x <= e.y;
                 stack_high = vec4<u32>(stack_low.w, stack_high.xyz);
-                stack_low = vec4<u32>(select(first, second, first_nearer), stack_low.xyz);
+                stack_low = vec4<u32>(step.deferred, stack_low.xyz);
                 sp += 1u;
-                current = select(second, first, first_nearer);
-                descend = true;
-            } else if (e.x >= 0.0) {
-                current = first;
-                descend = true;
-            } else if (e.y >= 0.0) {
-                current = second;
-                descend = true;
             }
+            current = step.next;
+            descend = step.descend;
         }
         if (descend) {
             continue;
