@@ -23,14 +23,17 @@ pub const WIDTH: usize = 4;
 
 /// One node: the boxes of up to four children as structure-of-arrays lanes, 128 bytes.
 ///
+/// `bounds[axis]` holds the four children's minima on `axis` and `bounds[3 + axis]` their
+/// maxima, so a ray reads its near and far slab by an index fixed per ray (Embree's
+/// `nearX`/`farX`) instead of choosing between them at every node.
+///
 /// Lane i is a child: interior (`count[i] == 0`, `child[i]` indexes `WideBvh::nodes`), a leaf
 /// (`count[i] > 0` triangles from `child[i]`), or empty (`count[i] == 0` and `child[i] ==
 /// EMPTY`; its box is inverted, min = +MAX, max = −MAX, so no ray overlaps it).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct WideNode {
-    pub min: [Vec4; 3],
-    pub max: [Vec4; 3],
+    pub bounds: [Vec4; 6],
     pub child: [u32; WIDTH],
     pub count: [u32; WIDTH],
 }
@@ -81,8 +84,14 @@ impl WideBvh {
         }
         let index = self.nodes.len() as u32;
         self.nodes.push(WideNode {
-            min: [Vec4::splat(f32::MAX); 3],
-            max: [Vec4::splat(-f32::MAX); 3],
+            bounds: [
+                Vec4::splat(f32::MAX),
+                Vec4::splat(f32::MAX),
+                Vec4::splat(f32::MAX),
+                Vec4::splat(-f32::MAX),
+                Vec4::splat(-f32::MAX),
+                Vec4::splat(-f32::MAX),
+            ],
             child: [EMPTY; WIDTH],
             count: [0; WIDTH],
         });
@@ -95,8 +104,8 @@ impl WideBvh {
             };
             let w = &mut self.nodes[index as usize];
             for axis in 0..3 {
-                w.min[axis][lane] = child.bounds_min[axis];
-                w.max[axis][lane] = child.bounds_max[axis];
+                w.bounds[axis][lane] = child.bounds_min[axis];
+                w.bounds[3 + axis][lane] = child.bounds_max[axis];
             }
             w.child[lane] = child_index;
             w.count[lane] = count;
@@ -109,8 +118,10 @@ impl WideBvh {
 struct RayWidePrecomp {
     origin: [Vec4; 3],
     inv_direction: [Vec4; 3],
-    /// Per axis: direction ≥ 0 (the near slab is the min one).
-    positive: [bool; 3],
+    /// Per axis: the index in [`WideNode::bounds`] of the slab the ray enters by (the minimum
+    /// when the direction is ≥ 0) and of the one it leaves by.
+    near: [usize; 3],
+    far: [usize; 3],
     /// Per axis: is the ray parallel to the slabs ([`crate::geometry::RayBoxPrecomp`]).
     parallel: [bool; 3],
 }
@@ -119,24 +130,32 @@ impl RayWidePrecomp {
     fn new(ray: &Ray) -> RayWidePrecomp {
         let pre = crate::geometry::RayBoxPrecomp::new(ray);
         let parallel = pre.parallel.bitmask();
+        let positive = [0, 1, 2].map(|a| pre.inv_direction[a] >= 0.0);
         RayWidePrecomp {
             origin: [0, 1, 2].map(|a| Vec4::splat(pre.origin[a])),
             inv_direction: [0, 1, 2].map(|a| Vec4::splat(pre.inv_direction[a])),
-            positive: [0, 1, 2].map(|a| pre.inv_direction[a] >= 0.0),
+            near: [0, 1, 2].map(|a| if positive[a] { a } else { 3 + a }),
+            far: [0, 1, 2].map(|a| if positive[a] { 3 + a } else { a }),
             parallel: [0, 1, 2].map(|a| parallel & (1 << a) != 0),
         }
+    }
+
+    fn any_parallel(&self) -> bool {
+        self.parallel.iter().any(|&p| p)
     }
 }
 
 /// Entry distances of the four lanes (clamped to 0) and the mask of lanes the ray overlaps
-/// within `(0, t_max)`: [`crate::geometry::box_entry`] on four boxes at once.
+/// within `(0, t_max)`: [`crate::geometry::box_entry`] on four boxes at once. `PARALLEL`:
+/// the ray is parallel to some axis's slabs, which are then tested by the origin (rare, so
+/// the common case is compiled without that branch).
 #[inline(always)]
-fn wide_box_entry(pre: &RayWidePrecomp, t_max: f32, node: &WideNode) -> (Vec4, u32) {
+fn wide_box_entry<const PARALLEL: bool>(pre: &RayWidePrecomp, t_max: f32, node: &WideNode) -> (Vec4, u32) {
     let mut t_near = Vec4::ZERO;
     let mut t_far = Vec4::splat(f32::MAX);
     for axis in 0..3 {
-        let (min, max) = (node.min[axis], node.max[axis]);
-        let (near, far) = if pre.parallel[axis] {
+        let (near, far) = if PARALLEL && pre.parallel[axis] {
+            let (min, max) = (node.bounds[axis], node.bounds[3 + axis]);
             let o = pre.origin[axis];
             let inside = o.cmpge(min) & o.cmple(max);
             (
@@ -144,13 +163,10 @@ fn wide_box_entry(pre: &RayWidePrecomp, t_max: f32, node: &WideNode) -> (Vec4, u
                 Vec4::select(inside, Vec4::splat(f32::MAX), Vec4::splat(f32::MIN)),
             )
         } else {
-            let t0 = (min - pre.origin[axis]) * pre.inv_direction[axis];
-            let t1 = (max - pre.origin[axis]) * pre.inv_direction[axis];
-            if pre.positive[axis] {
-                (t0, t1)
-            } else {
-                (t1, t0)
-            }
+            (
+                (node.bounds[pre.near[axis]] - pre.origin[axis]) * pre.inv_direction[axis],
+                (node.bounds[pre.far[axis]] - pre.origin[axis]) * pre.inv_direction[axis],
+            )
         };
         t_near = t_near.max(near);
         t_far = t_far.min(far);
@@ -163,11 +179,25 @@ fn wide_box_entry(pre: &RayWidePrecomp, t_max: f32, node: &WideNode) -> (Vec4, u
 /// Visits the leaves the ray may touch, nearer boxes first; `visit(first, count, ray)` tests
 /// a leaf's triangles, may shorten `ray.t_max`, and returns `true` to stop. A deferred child
 /// whose entry lies beyond the nearest hit found meanwhile is dropped.
-pub fn traverse_wide(bvh: &WideBvh, ray: &mut Ray, mut visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
+pub fn traverse_wide(bvh: &WideBvh, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
     if bvh.nodes.is_empty() {
         return;
     }
     let pre = RayWidePrecomp::new(ray);
+    if pre.any_parallel() {
+        traverse_wide_with::<true>(bvh, &pre, ray, visit)
+    } else {
+        traverse_wide_with::<false>(bvh, &pre, ray, visit)
+    }
+}
+
+#[inline(always)]
+fn traverse_wide_with<const PARALLEL: bool>(
+    bvh: &WideBvh,
+    pre: &RayWidePrecomp,
+    ray: &mut Ray,
+    mut visit: impl FnMut(u32, u32, &mut Ray) -> bool,
+) {
     // Each level defers at most WIDTH − 1 children, and the tree is no deeper than the
     // binary one. Left uninitialised: zeroing its 2.3 KB took 14% of a Cornell-box render.
     let mut stack = [const { MaybeUninit::<(u32, u32, f32)>::uninit() }; (WIDTH - 1) * MAX_DEPTH + 1];
@@ -175,21 +205,34 @@ pub fn traverse_wide(bvh: &WideBvh, ray: &mut Ray, mut visit: impl FnMut(u32, u3
     let mut current = 0u32;
     loop {
         let node = &bvh.nodes[current as usize];
-        let (entry, mut mask) = wide_box_entry(&pre, ray.t_max, node);
-        // Push the overlapped lanes farthest first, so the nearest is popped next.
-        let base = sp;
-        while mask != 0 {
+        let (entry, mut mask) = wide_box_entry::<PARALLEL>(pre, ray.t_max, node);
+        if mask != 0 && mask & (mask - 1) == 0 {
+            // One child overlapped (the common case below the top levels): go straight to
+            // it, as pushing and popping it would.
             let lane = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            let item = (node.child[lane], node.count[lane], entry[lane]);
-            let mut i = sp;
-            // SAFETY: entries below `sp` have all been written.
-            while i > base && unsafe { stack[i - 1].assume_init() }.2 < item.2 {
-                stack[i] = stack[i - 1];
-                i -= 1;
+            if node.count[lane] == 0 {
+                current = node.child[lane];
+                continue;
             }
-            stack[i] = MaybeUninit::new(item);
-            sp += 1;
+            if visit(node.child[lane], node.count[lane], ray) {
+                return;
+            }
+        } else {
+            // Push the overlapped lanes farthest first, so the nearest is popped next.
+            let base = sp;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let item = (node.child[lane], node.count[lane], entry[lane]);
+                let mut i = sp;
+                // SAFETY: entries below `sp` have all been written.
+                while i > base && unsafe { stack[i - 1].assume_init() }.2 < item.2 {
+                    stack[i] = stack[i - 1];
+                    i -= 1;
+                }
+                stack[i] = MaybeUninit::new(item);
+                sp += 1;
+            }
         }
         // The next deferred child (nearest first) that may still hold a nearer hit; leaves
         // are tested as they come off the stack.
