@@ -1,6 +1,6 @@
 //! BVH traversal against brute force, watertightness, and self-intersection of spawned
 //! rays — the geometric robustness DESIGN.md asks for, on the flat arrays both backends use
-//! (the binary tree, and the CPU's 4-wide collapse of it).
+//! (the binary tree, and the CPU's 8-wide collapse of it).
 
 mod common;
 
@@ -105,7 +105,7 @@ fn test_scene() -> Vec<[Vec3; 3]> {
     tris
 }
 
-/// Both trees (the binary one the GPU walks and the CPU's 4-wide collapse of it) against
+/// Both trees (the binary one the GPU walks and the CPU's 8-wide collapse of it) against
 /// brute force.
 fn check_against_brute_force(
     nodes: &[pathlight::scene::layout::BvhNode],
@@ -115,7 +115,7 @@ fn check_against_brute_force(
 ) {
     check_tree_against_brute_force(nodes, triangles, ray, &format!("{what}, binary tree"));
     let wide = WideBvh::collapse(nodes);
-    check_tree_against_brute_force(&wide, triangles, ray, &format!("{what}, 4-wide tree"));
+    check_tree_against_brute_force(&wide, triangles, ray, &format!("{what}, 8-wide tree"));
 }
 
 fn check_tree_against_brute_force<T: Traversal + ?Sized>(

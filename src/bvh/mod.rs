@@ -1,10 +1,11 @@
 //! Bounding volume hierarchy over triangles: built by binned SAH straight into the 32-byte
 //! [`BvhNode`](crate::scene::layout::BvhNode) array that the GPU traverses, and collapsed
-//! from it into the CPU's 4-wide [`WideBvh`].
+//! from it into the CPU's 8-wide [`WideBvh`].
 //!
 //! WGSL twin of `traverse.rs`: `shaders/bvh.wgsl`.
 
 mod build;
+mod lanes;
 mod traverse;
 mod wide;
 

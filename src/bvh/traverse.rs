@@ -88,7 +88,7 @@ fn traverse(nodes: &[BvhNode], ray: &mut Ray, mut visit: impl FnMut(u32, u32, &m
 }
 
 /// A tree the intersection queries can walk: the flat binary [`BvhNode`] array (the GPU's
-/// layout) or the CPU's 4-wide [`WideBvh`]. Both visit the same leaves over the same
+/// layout) or the CPU's 8-wide [`WideBvh`]. Both visit the same leaves over the same
 /// triangle order.
 pub trait Traversal {
     /// Calls `visit(first, count, ray)` for the leaves the ray may touch, nearer first, until

@@ -1,7 +1,11 @@
-//! The CPU backend's 4-wide BVH: the binary tree collapsed so that one node holds up to four
-//! children's boxes, tested together with 4-wide SIMD (Wald, Benthin & Boulos 2008, "Getting
+//! The CPU backend's 8-wide BVH: the binary tree collapsed so that one node holds up to eight
+//! children's boxes, tested together with 8-wide SIMD (Wald, Benthin & Boulos 2008, "Getting
 //! Rid of Packets"; Dammertz et al. 2008, "Shallow Bounding Volume Hierarchies"; Embree's
-//! BVH4).
+//! BVH8, its default where AVX is available).
+//!
+//! Eight rather than four: a ray's walk is a chain of dependent node loads, and with eight
+//! children a node spans three binary levels instead of two, so the chain is shorter for the
+//! same leaves (`bench/RESULTS.md` has the before and after).
 //!
 //! The GPU keeps the binary [`BvhNode`] array (one lane per ray gains nothing from wide
 //! nodes there); both trees have the same leaves over the same triangle order, so both
@@ -11,7 +15,9 @@
 
 use std::mem::MaybeUninit;
 
-use glam::{Vec3, Vec4};
+use glam::Vec3;
+
+use super::lanes::{Lanes, LANES};
 
 use crate::geometry::{entry_within, gamma, Ray};
 use crate::scene::layout::BvhNode;
@@ -19,11 +25,11 @@ use crate::scene::layout::BvhNode;
 use super::build::MAX_DEPTH;
 
 /// Children per node.
-pub const WIDTH: usize = 4;
+pub const WIDTH: usize = LANES;
 
-/// One node: the boxes of up to four children as structure-of-arrays lanes, 128 bytes.
+/// One node: the boxes of up to eight children as structure-of-arrays lanes, 256 bytes.
 ///
-/// `bounds[axis]` holds the four children's minima on `axis` and `bounds[3 + axis]` their
+/// `bounds[axis]` holds the eight children's minima on `axis` and `bounds[3 + axis]` their
 /// maxima, so a ray reads its near and far slab by an index fixed per ray (Embree's
 /// `nearX`/`farX`) instead of choosing between them at every node.
 ///
@@ -33,7 +39,7 @@ pub const WIDTH: usize = 4;
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct WideNode {
-    pub bounds: [Vec4; 6],
+    pub bounds: [Lanes; 6],
     pub child: [u32; WIDTH],
     pub count: [u32; WIDTH],
 }
@@ -54,7 +60,7 @@ fn surface_area(n: &BvhNode) -> f32 {
 
 impl WideBvh {
     /// Collapses the flat binary tree: each wide node takes its binary node's two children
-    /// and, while it has fewer than four, replaces the interior child of largest surface
+    /// and, while it has fewer than eight, replaces the interior child of largest surface
     /// area by that child's two children (the greedy collapse of Wald et al. 2008 §3).
     pub fn collapse(nodes: &[BvhNode]) -> WideBvh {
         let mut wide = WideBvh { nodes: Vec::with_capacity(nodes.len() / 2 + 1) };
@@ -84,17 +90,19 @@ impl WideBvh {
         }
         let index = self.nodes.len() as u32;
         self.nodes.push(WideNode {
-            bounds: [
-                Vec4::splat(f32::MAX),
-                Vec4::splat(f32::MAX),
-                Vec4::splat(f32::MAX),
-                Vec4::splat(-f32::MAX),
-                Vec4::splat(-f32::MAX),
-                Vec4::splat(-f32::MAX),
-            ],
+            bounds: [Lanes::splat(0.0); 6],
             child: [EMPTY; WIDTH],
             count: [0; WIDTH],
         });
+        // Empty lanes keep inverted boxes.
+        let mut bounds = [
+            [f32::MAX; WIDTH],
+            [f32::MAX; WIDTH],
+            [f32::MAX; WIDTH],
+            [-f32::MAX; WIDTH],
+            [-f32::MAX; WIDTH],
+            [-f32::MAX; WIDTH],
+        ];
         for (lane, &n) in lanes.iter().enumerate() {
             let child = &nodes[n as usize];
             let (child_index, count) = if child.triangle_count() > 0 {
@@ -102,22 +110,23 @@ impl WideBvh {
             } else {
                 (self.collapse_node(nodes, n), 0)
             };
-            let w = &mut self.nodes[index as usize];
             for axis in 0..3 {
-                w.bounds[axis][lane] = child.bounds_min[axis];
-                w.bounds[3 + axis][lane] = child.bounds_max[axis];
+                bounds[axis][lane] = child.bounds_min[axis];
+                bounds[3 + axis][lane] = child.bounds_max[axis];
             }
+            let w = &mut self.nodes[index as usize];
             w.child[lane] = child_index;
             w.count[lane] = count;
         }
+        self.nodes[index as usize].bounds = bounds.map(Lanes::from_array);
         index
     }
 }
 
-/// Per-ray constants of the 4-wide box test.
+/// Per-ray constants of the 8-wide box test.
 struct RayWidePrecomp {
-    origin: [Vec4; 3],
-    inv_direction: [Vec4; 3],
+    origin: [Lanes; 3],
+    inv_direction: [Lanes; 3],
     /// Per axis: the index in [`WideNode::bounds`] of the slab the ray enters by (the minimum
     /// when the direction is ≥ 0) and of the one it leaves by.
     near: [usize; 3],
@@ -132,8 +141,8 @@ impl RayWidePrecomp {
         let parallel = pre.parallel.bitmask();
         let positive = [0, 1, 2].map(|a| pre.inv_direction[a] >= 0.0);
         RayWidePrecomp {
-            origin: [0, 1, 2].map(|a| Vec4::splat(pre.origin[a])),
-            inv_direction: [0, 1, 2].map(|a| Vec4::splat(pre.inv_direction[a])),
+            origin: [0, 1, 2].map(|a| Lanes::splat(pre.origin[a])),
+            inv_direction: [0, 1, 2].map(|a| Lanes::splat(pre.inv_direction[a])),
             near: [0, 1, 2].map(|a| if positive[a] { a } else { 3 + a }),
             far: [0, 1, 2].map(|a| if positive[a] { 3 + a } else { a }),
             parallel: [0, 1, 2].map(|a| parallel & (1 << a) != 0),
@@ -146,34 +155,34 @@ impl RayWidePrecomp {
 }
 
 /// Entry distances of the four lanes (clamped to 0) and the mask of lanes the ray overlaps
-/// within `(0, t_max)`: [`crate::geometry::box_entry`] on four boxes at once. `PARALLEL`:
+/// within `(0, t_max)`: [`crate::geometry::box_entry`] on eight boxes at once. `PARALLEL`:
 /// the ray is parallel to some axis's slabs, which are then tested by the origin (rare, so
 /// the common case is compiled without that branch).
 #[inline(always)]
-fn wide_box_entry<const PARALLEL: bool>(pre: &RayWidePrecomp, t_max: f32, node: &WideNode) -> (Vec4, u32) {
-    let mut t_near = Vec4::ZERO;
-    let mut t_far = Vec4::splat(f32::MAX);
+fn wide_box_entry<const PARALLEL: bool>(pre: &RayWidePrecomp, t_max: f32, node: &WideNode) -> (Lanes, u32) {
+    let mut t_near = Lanes::splat(0.0);
+    let mut t_far = Lanes::splat(f32::MAX);
     for axis in 0..3 {
         let (near, far) = if PARALLEL && pre.parallel[axis] {
             let (min, max) = (node.bounds[axis], node.bounds[3 + axis]);
             let o = pre.origin[axis];
-            let inside = o.cmpge(min) & o.cmple(max);
+            let inside = o.cmpge(min).and(o.cmple(max));
             (
-                Vec4::select(inside, Vec4::splat(f32::MIN), Vec4::splat(f32::MAX)),
-                Vec4::select(inside, Vec4::splat(f32::MAX), Vec4::splat(f32::MIN)),
+                Lanes::select(inside, Lanes::splat(f32::MIN), Lanes::splat(f32::MAX)),
+                Lanes::select(inside, Lanes::splat(f32::MAX), Lanes::splat(f32::MIN)),
             )
         } else {
             (
-                (node.bounds[pre.near[axis]] - pre.origin[axis]) * pre.inv_direction[axis],
-                (node.bounds[pre.far[axis]] - pre.origin[axis]) * pre.inv_direction[axis],
+                node.bounds[pre.near[axis]].sub(pre.origin[axis]).mul(pre.inv_direction[axis]),
+                node.bounds[pre.far[axis]].sub(pre.origin[axis]).mul(pre.inv_direction[axis]),
             )
         };
         t_near = t_near.max(near);
         t_far = t_far.min(far);
     }
-    let exit = t_far * (1.0 + 2.0 * gamma(3));
-    let within = (t_near * (1.0 - 4.0 * gamma(3))).cmple(Vec4::splat(t_max));
-    (t_near, (t_near.cmple(exit) & within).bitmask())
+    let exit = t_far.mul(Lanes::splat(1.0 + 2.0 * gamma(3)));
+    let within = t_near.mul(Lanes::splat(1.0 - 4.0 * gamma(3))).cmple(Lanes::splat(t_max));
+    (t_near, t_near.cmple(exit).and(within).bitmask())
 }
 
 /// Visits the leaves the ray may touch, nearer boxes first; `visit(first, count, ray)` tests
@@ -218,6 +227,7 @@ fn traverse_wide_with<const PARALLEL: bool>(
                 return;
             }
         } else {
+            let entry = entry.to_array();
             // Push the overlapped lanes farthest first, so the nearest is popped next.
             let base = sp;
             while mask != 0 {

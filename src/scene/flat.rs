@@ -30,7 +30,7 @@ pub struct ViewSettings {
 pub struct FlatScene {
     /// The binary BVH (the GPU's).
     pub nodes: Vec<BvhNode>,
-    /// The same tree collapsed 4-wide, which the CPU backend traverses.
+    /// The same tree collapsed 8-wide, which the CPU backend traverses.
     pub wide_bvh: crate::bvh::WideBvh,
     /// BVH leaf order.
     pub triangles: Vec<Triangle>,
