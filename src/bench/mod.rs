@@ -208,5 +208,38 @@ pub fn machine_description() -> String {
                 .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
         })
         .unwrap_or_else(|| "unknown CPU".into());
-    format!("{cpu}, {} threads for the CPU backend", rayon::current_num_threads())
+    format!("{cpu} ({}), {} threads for the CPU backend", vector_extensions(), rayon::current_num_threads())
+}
+
+/// The widest vector extension the CPU has and the one this build was compiled for. Both
+/// belong in a results file: a peer that compiles its kernels at run time (Mitsuba 3's
+/// LLVM variants) uses what the CPU has, pathlight what it was built for, and two runs on
+/// hosts that differ here are not one comparison (`bench/RESULTS.md`, third peer run).
+pub fn vector_extensions() -> String {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let has = if std::arch::is_x86_feature_detected!("avx512f") {
+            "AVX-512"
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            "AVX2"
+        } else if std::arch::is_x86_feature_detected!("avx") {
+            "AVX"
+        } else {
+            "SSE2"
+        };
+        let built = if cfg!(target_feature = "avx512f") {
+            "AVX-512"
+        } else if cfg!(target_feature = "avx2") {
+            "AVX2"
+        } else if cfg!(target_feature = "avx") {
+            "AVX"
+        } else {
+            "SSE2"
+        };
+        format!("CPU has {has}, pathlight built for {built}")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        std::env::consts::ARCH.to_string()
+    }
 }
