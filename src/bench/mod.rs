@@ -218,25 +218,16 @@ pub fn machine_description() -> String {
 pub fn vector_extensions() -> String {
     #[cfg(target_arch = "x86_64")]
     {
-        let has = if std::arch::is_x86_feature_detected!("avx512f") {
-            "AVX-512"
-        } else if std::arch::is_x86_feature_detected!("avx2") {
-            "AVX2"
-        } else if std::arch::is_x86_feature_detected!("avx") {
-            "AVX"
-        } else {
-            "SSE2"
+        // Widest first: (name, the CPU has it, this build was compiled for it).
+        let extensions = [
+            ("AVX-512", std::arch::is_x86_feature_detected!("avx512f"), cfg!(target_feature = "avx512f")),
+            ("AVX2", std::arch::is_x86_feature_detected!("avx2"), cfg!(target_feature = "avx2")),
+            ("AVX", std::arch::is_x86_feature_detected!("avx"), cfg!(target_feature = "avx")),
+        ];
+        let widest = |pick: fn(&(&str, bool, bool)) -> bool| {
+            extensions.iter().find(|e| pick(e)).map_or("SSE2", |e| e.0)
         };
-        let built = if cfg!(target_feature = "avx512f") {
-            "AVX-512"
-        } else if cfg!(target_feature = "avx2") {
-            "AVX2"
-        } else if cfg!(target_feature = "avx") {
-            "AVX"
-        } else {
-            "SSE2"
-        };
-        format!("CPU has {has}, pathlight built for {built}")
+        format!("CPU has {}, pathlight built for {}", widest(|e| e.1), widest(|e| e.2))
     }
     #[cfg(not(target_arch = "x86_64"))]
     {

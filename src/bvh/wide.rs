@@ -88,6 +88,8 @@ impl WideBvh {
             lanes.swap_remove(i);
             lanes.extend([n + 1, nodes[n as usize].offset]);
         }
+        // Reserve this node's slot before its children append theirs; its boxes are set
+        // once every lane is known.
         let index = self.nodes.len() as u32;
         self.nodes.push(WideNode {
             bounds: [Lanes::splat(0.0); 6],
@@ -154,7 +156,7 @@ impl RayWidePrecomp {
     }
 }
 
-/// Entry distances of the four lanes (clamped to 0) and the mask of lanes the ray overlaps
+/// Entry distances of the eight lanes (clamped to 0) and the mask of lanes the ray overlaps
 /// within `(0, t_max)`: [`crate::geometry::box_entry`] on eight boxes at once. `PARALLEL`:
 /// the ray is parallel to some axis's slabs, which are then tested by the origin (rare, so
 /// the common case is compiled without that branch).
