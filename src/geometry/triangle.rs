@@ -1,7 +1,7 @@
 //! The watertight ray–triangle test (Woop, Benthin & Wald 2013, "Watertight Ray/Triangle
 //! Intersection", JCGT 2(1)), with pbrt-v4's conservative `t > 0` test (§6.8.7).
 
-use glam::{Vec3, Vec3Swizzles};
+use glam::{Mat3A, Vec3, Vec3A, Vec3Swizzles};
 
 use super::float::{difference_of_products, gamma};
 use super::ray::Ray;
@@ -29,23 +29,26 @@ fn max_dimension(v: Vec3) -> usize {
     }
 }
 
-fn permute(v: Vec3, x: usize, y: usize, z: usize) -> Vec3 {
-    Vec3::new(v[x], v[y], v[z])
-}
-
 /// What the watertight test needs of a ray, computed once per ray rather than once per
 /// triangle: the axis permutation that makes the direction's largest component z, and the
 /// shear that maps the direction to +z (Woop et al. 2013 §3; the three divisions dominated
 /// the per-triangle cost before).
+///
+/// The permutation and the x and y shears are one matrix, `shear`, so that a vertex goes to
+/// ray space in three vector multiplies and two adds instead of nine lane picks by runtime
+/// index. Each row has the coefficient 1 at the permuted axis, the shear at the dominant
+/// axis (rows x and y) and exact zeros elsewhere, and glam multiplies and adds without
+/// fusing: a zero coefficient adds an exact ±0, so every coordinate is the rounded
+/// `x + s·z` of the permute-then-shear form (Woop et al.'s equations), bit for bit, up to
+/// the sign of a zero, which no test below reads.
 #[derive(Clone, Copy, Debug)]
 pub struct RayTrianglePrecomp {
     origin: Vec3,
+    origin_a: Vec3A,
     direction: Vec3,
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
+    /// Rows: ray-space x = d[kx] + sx·d[kz], y = d[ky] + sy·d[kz], z = d[kz] (unscaled), for
+    /// d = p − origin.
+    shear: Mat3A,
     sz: f32,
     /// A zero direction (a shadow ray to its own origin) hits nothing.
     valid: bool,
@@ -53,20 +56,28 @@ pub struct RayTrianglePrecomp {
 
 impl RayTrianglePrecomp {
     pub fn new(ray: &Ray) -> RayTrianglePrecomp {
-        let kz = max_dimension(ray.direction.abs());
-        let kx = if kz == 2 { 0 } else { kz + 1 };
-        let ky = if kx == 2 { 0 } else { kx + 1 };
-        let d = permute(ray.direction, kx, ky, kz);
+        // kz: the direction's largest axis; kx, ky the next two cyclically. Column k of
+        // `shear` is what d[k] contributes to ray space x, y, z: (1, 0, 0) for kx,
+        // (0, 1, 0) for ky and (sx, sy, 1) for kz.
+        let d = ray.direction;
+        let (dx, dy, dz, kz) = match max_dimension(d.abs()) {
+            0 => (d.y, d.z, d.x, 0),
+            1 => (d.z, d.x, d.y, 1),
+            _ => (d.x, d.y, d.z, 2),
+        };
+        let (x, y, z) = (Vec3A::X, Vec3A::Y, Vec3A::new(-dx / dz, -dy / dz, 1.0));
+        let shear = match kz {
+            0 => Mat3A::from_cols(z, x, y),
+            1 => Mat3A::from_cols(y, z, x),
+            _ => Mat3A::from_cols(x, y, z),
+        };
         RayTrianglePrecomp {
             origin: ray.origin,
+            origin_a: ray.origin.into(),
             direction: ray.direction,
-            kx,
-            ky,
-            kz,
-            sx: -d.x / d.z,
-            sy: -d.y / d.z,
-            sz: 1.0 / d.z,
-            valid: d.z != 0.0,
+            shear,
+            sz: 1.0 / dz,
+            valid: dz != 0.0,
         }
     }
 }
@@ -96,17 +107,9 @@ pub fn intersect_triangle_precomp(
     }
     // Translate to the ray origin, permute so the ray's dominant axis is z, shear so the ray
     // becomes +z.
-    let (kx, ky, kz) = (pre.kx, pre.ky, pre.kz);
-    let mut p0t = permute(p0 - pre.origin, kx, ky, kz);
-    let mut p1t = permute(p1 - pre.origin, kx, ky, kz);
-    let mut p2t = permute(p2 - pre.origin, kx, ky, kz);
-    let (sx, sy, sz) = (pre.sx, pre.sy, pre.sz);
-    p0t.x += sx * p0t.z;
-    p0t.y += sy * p0t.z;
-    p1t.x += sx * p1t.z;
-    p1t.y += sy * p1t.z;
-    p2t.x += sx * p2t.z;
-    p2t.y += sy * p2t.z;
+    let to_ray_space = |p: Vec3| pre.shear * (Vec3A::from(p) - pre.origin_a);
+    let (mut p0t, mut p1t, mut p2t) = (to_ray_space(p0), to_ray_space(p1), to_ray_space(p2));
+    let sz = pre.sz;
 
     // Edge functions.
     let e0 = difference_of_products(p1t.x, p2t.y, p1t.y, p2t.x);
