@@ -336,6 +336,12 @@ impl GltfBsdf {
             || (self.p_transmit > 0.0 && !self.transmission_is_delta)
     }
 
+    /// Does [`Self::sample`] read its lobe-choice number? A matte BSDF has one lobe and
+    /// ignores it.
+    pub fn chooses_a_lobe(&self) -> bool {
+        !self.lambertian
+    }
+
     /// Lobe selection probabilities (coat, sheen, reflection, diffuse, transmission), for
     /// tests.
     pub fn lobe_probabilities(&self) -> [f32; 5] {

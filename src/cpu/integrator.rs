@@ -270,7 +270,14 @@ pub fn radiance(
 
         // Next-event estimation.
         if bsdf.has_non_delta() && !scene.lights.is_empty() {
-            let u_select = rng.next_2d();
+            // With one light there is nothing to choose (the kernel draws the number anyway;
+            // skipping it keeps the stream): most environment-lit scenes.
+            let u_select = if scene.lights.len() > 1 {
+                rng.next_2d()
+            } else {
+                rng.skip_2d();
+                Vec2::ZERO
+            };
             let u_light = rng.next_2d();
             if let Some(ls) =
                 sample_light(scene.light_arrays(), si.p, si.p_error, si.n_geometric, u_select, u_light)
@@ -294,8 +301,14 @@ pub fn radiance(
             }
         }
 
-        // Continue the path by sampling the BSDF.
-        let u_lobe = rng.next_1d();
+        // Continue the path by sampling the BSDF. The lobe-choice number is a dimension of
+        // the stream whether or not the BSDF reads it (the kernel always draws it).
+        let u_lobe = if bsdf.chooses_a_lobe() {
+            rng.next_1d()
+        } else {
+            rng.skip_1d();
+            0.0
+        };
         let u_dir = rng.next_2d();
         let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { break };
         let wi_world = si.frame.from_local(bs.wi).normalize();

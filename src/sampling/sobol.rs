@@ -171,6 +171,31 @@ impl PathSampler {
         }
     }
 
+    /// Passes over the number [`Self::next_1d`] would return, leaving every later number
+    /// as it would have been: a path that has no use for a number (the lobe choice of a
+    /// one-lobe BSDF) skips the work of drawing it but keeps the stream the other backend,
+    /// which draws it, follows.
+    pub fn skip_1d(&mut self) {
+        match self {
+            PathSampler::Sobol { dimension, .. } => *dimension += 1,
+            PathSampler::Independent(rng) => {
+                rng.next_u32();
+            }
+        }
+    }
+
+    /// Passes over the pair [`Self::next_2d`] would return (one Sobol dimension, two
+    /// independent numbers), as [`Self::skip_1d`] does.
+    pub fn skip_2d(&mut self) {
+        match self {
+            PathSampler::Sobol { dimension, .. } => *dimension += 1,
+            PathSampler::Independent(rng) => {
+                rng.next_u32();
+                rng.next_u32();
+            }
+        }
+    }
+
     /// Uniform in [0, 1)².
     pub fn next_2d(&mut self) -> Vec2 {
         match self {
@@ -215,6 +240,25 @@ mod tests {
         for _ in 0..10_000 {
             let i = rng.next_u32();
             assert_eq!(sobol_second_reversed(i).reverse_bits(), sobol_second_by_definition(i));
+        }
+    }
+
+    /// Skipping a number leaves the next ones as drawing it would, for both samplers.
+    #[test]
+    fn skipping_a_number_keeps_the_stream() {
+        for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
+            let (mut drawn, mut skipped) =
+                (PathSampler::new(kind, 3, 4, 5, 6), PathSampler::new(kind, 3, 4, 5, 6));
+            drawn.next_2d();
+            skipped.next_2d();
+            drawn.next_1d();
+            skipped.skip_1d();
+            drawn.next_2d();
+            skipped.skip_2d();
+            for _ in 0..4 {
+                assert_eq!(drawn.next_2d(), skipped.next_2d(), "{kind:?}");
+                assert_eq!(drawn.next_1d(), skipped.next_1d(), "{kind:?}");
+            }
         }
     }
 
