@@ -409,6 +409,10 @@ impl TextureArrays<'_> {
 /// factor times the emissive texture (sRGB) where there is one.
 pub fn emitted_radiance(arrays: &TextureArrays, material: &Material, triangle: usize, b: Vec3) -> Vec3 {
     let le = Vec3::from(material.emission);
+    // Without an emissive texture the UVs are not needed (every light sample asks).
+    if material.emissive_texture == INVALID_INDEX {
+        return le;
+    }
     match arrays.lookup(material.emissive_texture, arrays.uv(triangle as u32, b), true) {
         Some(t) => le * t.truncate(),
         None => le,
