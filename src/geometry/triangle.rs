@@ -40,7 +40,9 @@ fn max_dimension(v: Vec3) -> usize {
 /// axis (rows x and y) and exact zeros elsewhere, and glam multiplies and adds without
 /// fusing: a zero coefficient adds an exact ±0, so every coordinate is the rounded
 /// `x + s·z` of the permute-then-shear form (Woop et al.'s equations), bit for bit, up to
-/// the sign of a zero, which no test below reads.
+/// the sign of a zero, which no test below reads. The WGSL twin keeps that form: on lavapipe
+/// the matrix was no faster (0.34 against 0.35 Msamples/s on the Cornell box), and no
+/// hardware GPU was at hand to measure.
 #[derive(Clone, Copy, Debug)]
 pub struct RayTrianglePrecomp {
     origin: Vec3,
