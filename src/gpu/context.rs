@@ -32,7 +32,7 @@ pub fn describe_adapter(adapter: &wgpu::Adapter) -> String {
     let l = adapter.limits();
     let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
     format!(
-        "{} ({:?}, {:?})\n  driver: {} {}\n  max storage buffer binding: {:.0} MiB, max buffer: {:.0} MiB, storage buffers per stage: {}\n  max workgroup size: {}×{}×{} ({} invocations), workgroups per dimension: {}",
+        "{} ({:?}, {:?})\n  driver: {} {}\n  max storage buffer binding: {:.0} MiB, max buffer: {:.0} MiB, storage buffers per stage: {}\n  max uniform buffer binding: {} KiB, uniform buffers per stage: {}\n  max workgroup size: {}×{}×{} ({} invocations), workgroups per dimension: {}",
         info.name,
         info.device_type,
         info.backend,
@@ -41,6 +41,8 @@ pub fn describe_adapter(adapter: &wgpu::Adapter) -> String {
         mib(l.max_storage_buffer_binding_size),
         mib(l.max_buffer_size),
         l.max_storage_buffers_per_shader_stage,
+        l.max_uniform_buffer_binding_size / 1024,
+        l.max_uniform_buffers_per_shader_stage,
         l.max_compute_workgroup_size_x,
         l.max_compute_workgroup_size_y,
         l.max_compute_workgroup_size_z,
