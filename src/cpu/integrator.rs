@@ -133,7 +133,11 @@ pub fn surface_interaction(
         let mapped = (tangent * (m.x * scale) + bitangent * (m.y * scale) + n_front * m.z).try_normalize()?;
         Some(if mapped.dot(n_geometric) < 0.0 { n_front } else { mapped })
     };
-    let n_mapped = map_normal(material.normal_texture, material.normal_scale).unwrap_or(n_front);
+    let n_mapped = if material.normal_texture == INVALID_INDEX {
+        n_front
+    } else {
+        map_normal(material.normal_texture, material.normal_scale).unwrap_or(n_front)
+    };
     // Face the incoming ray, and fall back where the shading normal would put the viewer
     // below its hemisphere (silhouettes of coarse meshes, steep normal-map texels): first to
     // the interpolated normal, then to the geometric one. This is the usual shading-normal
