@@ -276,13 +276,12 @@ pub fn radiance(
         if bsdf.has_non_delta() && !scene.lights.is_empty() {
             // With one light there is nothing to choose (the kernel draws the number anyway;
             // skipping it keeps the stream): most environment-lit scenes.
-            let u_select = if scene.lights.len() > 1 {
-                rng.next_2d()
+            let (u_select, u_light) = if scene.lights.len() > 1 {
+                rng.next_2d_pair()
             } else {
                 rng.skip_2d();
-                Vec2::ZERO
+                (Vec2::ZERO, rng.next_2d())
             };
-            let u_light = rng.next_2d();
             if let Some(ls) =
                 sample_light(scene.light_arrays(), si.p, si.p_error, si.n_geometric, u_select, u_light)
             {

@@ -104,6 +104,47 @@ fn sobol_second_reversed(i: u32) -> u32 {
     r
 }
 
+/// [`hash_u32`] on four lanes.
+#[inline(always)]
+fn hash_u32x4(mut x: UVec4) -> UVec4 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(UVec4::splat(0x7feb_352d));
+    x ^= x >> 15;
+    x = x.wrapping_mul(UVec4::splat(0x846c_a68b));
+    x ^= x >> 16;
+    x
+}
+
+/// [`owen_scramble_reversed`] on four lanes: [`lk_permute`], then the bits reversed by
+/// swapping ever-larger blocks (the vector unit has no bit-reverse instruction).
+#[inline(always)]
+fn owen_scramble_reversed_x4(mut x: UVec4, seed: UVec4) -> UVec4 {
+    let c = UVec4::splat;
+    x ^= x.wrapping_mul(c(0x3d20_adea));
+    x = x.wrapping_add(seed);
+    x = x.wrapping_mul((seed >> 16) | c(1));
+    x ^= x.wrapping_mul(c(0x0552_6c56));
+    x ^= x.wrapping_mul(c(0x53a2_2864));
+    x = ((x >> 1) & c(0x5555_5555)) | ((x & c(0x5555_5555)) << 1);
+    x = ((x >> 2) & c(0x3333_3333)) | ((x & c(0x3333_3333)) << 2);
+    x = ((x >> 4) & c(0x0f0f_0f0f)) | ((x & c(0x0f0f_0f0f)) << 4);
+    x = ((x >> 8) & c(0x00ff_00ff)) | ((x & c(0x00ff_00ff)) << 8);
+    (x >> 16) | (x << 16)
+}
+
+/// [`sobol_second_reversed`] on four lanes.
+#[inline(always)]
+fn sobol_second_reversed_x4(i: UVec4) -> UVec4 {
+    let c = UVec4::splat;
+    let mut r = i;
+    r ^= (r >> 1) & c(0x5555_5555);
+    r ^= (r >> 2) & c(0x3333_3333);
+    r ^= (r >> 4) & c(0x0f0f_0f0f);
+    r ^= (r >> 8) & c(0x00ff_00ff);
+    r ^= (r >> 16) & c(0x0000_ffff);
+    r
+}
+
 /// Top 24 bits of a fraction as a float in [0, 1), each value exactly representable.
 fn fraction_to_f32(u: u32) -> f32 {
     (u >> 8) as f32 * (1.0 / 16_777_216.0)
@@ -168,6 +209,34 @@ impl PathSampler {
                 fraction_to_f32(owen_scramble_reversed(shuffled, hash_u32(dimension_seed ^ 1)))
             }
             PathSampler::Independent(rng) => rng.next_1d(),
+        }
+    }
+
+    /// Two 2-D points, the next two dimensions: exactly what two calls of
+    /// [`Self::next_2d`] return, the Sobol work done four lanes wide (the two dimensions'
+    /// index shuffles side by side, then their four coordinate scrambles).
+    pub fn next_2d_pair(&mut self) -> (Vec2, Vec2) {
+        match self {
+            PathSampler::Sobol { pixel_seed, index_reversed, dimension } => {
+                let d = *dimension;
+                *dimension += 2;
+                // Lanes (d, d + 1, d, d + 1).
+                let dims = UVec4::new(d, d.wrapping_add(1), d, d.wrapping_add(1));
+                let dimension_seed =
+                    hash_u32x4(UVec4::splat(*pixel_seed) ^ dims.wrapping_mul(UVec4::splat(0x9e37_79b9)));
+                let shuffled = owen_scramble_reversed_x4(UVec4::splat(*index_reversed), dimension_seed);
+                let second = sobol_second_reversed_x4(shuffled);
+                // Lanes: x of d, x of d + 1, y of d, y of d + 1.
+                let coordinates = UVec4::new(shuffled.x, shuffled.y, second.z, second.w);
+                let seeds = hash_u32x4(dimension_seed ^ UVec4::new(1, 1, 2, 2));
+                let u = owen_scramble_reversed_x4(coordinates, seeds);
+                let f = |v: u32| fraction_to_f32(v);
+                (Vec2::new(f(u.x), f(u.z)), Vec2::new(f(u.y), f(u.w)))
+            }
+            PathSampler::Independent(rng) => {
+                let a = rng.next_2d();
+                (a, rng.next_2d())
+            }
         }
     }
 
@@ -240,6 +309,30 @@ mod tests {
         for _ in 0..10_000 {
             let i = rng.next_u32();
             assert_eq!(sobol_second_reversed(i).reverse_bits(), sobol_second_by_definition(i));
+        }
+    }
+
+    /// Drawing two points at once gives what two draws give, dimension after dimension,
+    /// for both samplers and over the whole range of indices.
+    #[test]
+    fn a_pair_of_points_is_two_points() {
+        let mut rng = Rng::new(7, 7, 7, 7);
+        for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
+            for _ in 0..2_000 {
+                let (x, y, k, seed) =
+                    (rng.next_u32() % 4096, rng.next_u32() % 4096, rng.next_u32(), rng.next_u32());
+                let (mut one, mut two) =
+                    (PathSampler::new(kind, x, y, k, seed), PathSampler::new(kind, x, y, k, seed));
+                for _ in 0..3 {
+                    let (a, b) = two.next_2d_pair();
+                    assert_eq!(
+                        (one.next_2d(), one.next_2d()),
+                        (a, b),
+                        "{kind:?} pixel ({x}, {y}) sample {k}"
+                    );
+                    assert_eq!(one.next_1d(), two.next_1d());
+                }
+            }
         }
     }
 
