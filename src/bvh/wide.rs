@@ -143,8 +143,8 @@ impl RayWidePrecomp {
         let parallel = pre.parallel.bitmask();
         let (o, inv) = (pre.origin, pre.inv_direction);
         // Written out per axis: as `[0, 1, 2].map(..)` the five arrays were an out-of-line
-        // call per ray (~40 instructions of a Cornell-box ray's few hundred).
-        // Axis a's minimum slab is bounds[a], its maximum bounds[3 + a].
+        // call per ray (~40 instructions of a Cornell-box ray's few hundred). Axis a's
+        // minimum slab is bounds[a], its maximum bounds[3 + a].
         let positive = [inv.x >= 0.0, inv.y >= 0.0, inv.z >= 0.0];
         let near = |a: usize| if positive[a] { a } else { 3 + a };
         let far = |a: usize| if positive[a] { 3 + a } else { a };

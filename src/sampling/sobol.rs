@@ -230,7 +230,7 @@ impl PathSampler {
                 let coordinates = UVec4::new(shuffled.x, shuffled.y, second.z, second.w);
                 let seeds = hash_u32x4(dimension_seed ^ UVec4::new(1, 1, 2, 2));
                 let u = owen_scramble_reversed_x4(coordinates, seeds);
-                let f = |v: u32| fraction_to_f32(v);
+                let f = fraction_to_f32;
                 (Vec2::new(f(u.x), f(u.z)), Vec2::new(f(u.y), f(u.w)))
             }
             PathSampler::Independent(rng) => {
