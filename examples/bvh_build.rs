@@ -8,11 +8,16 @@ use glam::Vec3;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let runs = args
-        .iter()
-        .position(|a| a == "--runs")
-        .and_then(|i| args.get(i + 1))
-        .map_or(7, |v| v.parse().expect("--runs takes a count"));
+    let runs: usize = match args.iter().position(|a| a == "--runs").map(|i| args.get(i + 1)) {
+        None => 7,
+        Some(value) => match value.and_then(|v| v.parse().ok()).filter(|&n| n > 0) {
+            Some(n) => n,
+            None => {
+                eprintln!("--runs takes a count of at least 1");
+                std::process::exit(2);
+            }
+        },
+    };
     let file = args
         .iter()
         .enumerate()
