@@ -18,8 +18,12 @@ scenes=("$@")
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
 for scene in "${scenes[@]}"; do
-    count=$(XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}" RAYON_NUM_THREADS=1 valgrind --tool=callgrind \
+    if ! log=$(XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}" RAYON_NUM_THREADS=1 valgrind --tool=callgrind \
         --callgrind-out-file="$out/callgrind.out" "$binary" render --backend cpu --spp 8 \
-        --width 96 --height 96 "$scene" -o "$out/image.exr" 2>&1 | awk '/I *refs:/ {print $NF}')
-    echo "$scene: $count instructions"
+        --width 96 --height 96 "$scene" -o "$out/image.exr" 2>&1); then
+        echo "$scene: the render failed:" >&2
+        grep -v '^==' <<<"$log" >&2
+        exit 1
+    fi
+    echo "$scene: $(awk '/I *refs:/ {print $NF}' <<<"$log") instructions"
 done
