@@ -34,9 +34,9 @@ fn max_dimension(v: Vec3) -> usize {
 /// shear that maps the direction to +z (Woop et al. 2013 §3; the three divisions dominated
 /// the per-triangle cost before).
 ///
-/// The permutation and the x and y shears are one matrix, `shear`, so that a vertex goes to
-/// ray space in three vector multiplies and two adds instead of nine lane picks by runtime
-/// index. Each row has the coefficient 1 at the permuted axis, the shear at the dominant
+/// The permutation and the x and y shears are one matrix, `permute_and_shear`, so that a
+/// vertex goes to ray space in three vector multiplies and two adds instead of nine lane
+/// picks by runtime index. Each row has the coefficient 1 at the permuted axis, the shear at the dominant
 /// axis (rows x and y) and exact zeros elsewhere, and glam multiplies and adds without
 /// fusing: a zero coefficient adds an exact ±0, so every coordinate is the rounded
 /// `x + s·z` of the permute-then-shear form (Woop et al.'s equations), bit for bit, up to
@@ -45,12 +45,12 @@ fn max_dimension(v: Vec3) -> usize {
 /// hardware GPU was at hand to measure.
 #[derive(Clone, Copy, Debug)]
 pub struct RayTrianglePrecomp {
-    origin: Vec3,
-    origin_a: Vec3A,
+    origin: Vec3A,
     direction: Vec3,
     /// Rows: ray-space x = d[kx] + sx·d[kz], y = d[ky] + sy·d[kz], z = d[kz] (unscaled), for
-    /// d = p − origin.
-    shear: Mat3A,
+    /// d = p − origin. (The WGSL twin keeps the axis indices and `shear` = (sx, sy, sz).)
+    permute_and_shear: Mat3A,
+    /// 1 / d[kz]: scales ray-space z to the ray parameter.
     sz: f32,
     /// A zero direction (a shadow ray to its own origin) hits nothing.
     valid: bool,
@@ -59,7 +59,7 @@ pub struct RayTrianglePrecomp {
 impl RayTrianglePrecomp {
     pub fn new(ray: &Ray) -> RayTrianglePrecomp {
         // kz: the direction's largest axis; kx, ky the next two cyclically. Column k of
-        // `shear` is what d[k] contributes to ray space x, y, z: (1, 0, 0) for kx,
+        // `permute_and_shear` is what d[k] contributes to ray space x, y, z: (1, 0, 0) for kx,
         // (0, 1, 0) for ky and (sx, sy, 1) for kz.
         let d = ray.direction;
         let (dx, dy, dz, kz) = match max_dimension(d.abs()) {
@@ -68,16 +68,15 @@ impl RayTrianglePrecomp {
             _ => (d.x, d.y, d.z, 2),
         };
         let (x, y, z) = (Vec3A::X, Vec3A::Y, Vec3A::new(-dx / dz, -dy / dz, 1.0));
-        let shear = match kz {
+        let permute_and_shear = match kz {
             0 => Mat3A::from_cols(z, x, y),
             1 => Mat3A::from_cols(y, z, x),
             _ => Mat3A::from_cols(x, y, z),
         };
         RayTrianglePrecomp {
-            origin: ray.origin,
-            origin_a: ray.origin.into(),
+            origin: ray.origin.into(),
             direction: ray.direction,
-            shear,
+            permute_and_shear,
             sz: 1.0 / dz,
             valid: dz != 0.0,
         }
@@ -109,7 +108,7 @@ pub fn intersect_triangle_precomp(
     }
     // Translate to the ray origin, permute so the ray's dominant axis is z, shear so the ray
     // becomes +z.
-    let to_ray_space = |p: Vec3| pre.shear * (Vec3A::from(p) - pre.origin_a);
+    let to_ray_space = |p: Vec3| pre.permute_and_shear * (Vec3A::from(p) - pre.origin);
     let (mut p0t, mut p1t, mut p2t) = (to_ray_space(p0), to_ray_space(p1), to_ray_space(p2));
     let sz = pre.sz;
 
@@ -160,7 +159,7 @@ pub fn intersect_triangle_precomp(
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = Vec3::new(e0, e1, e2).abs().max_element();
     let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
-    if t <= delta_t && !plane_ahead(pre.origin, pre.direction, p0, p1, p2) {
+    if t <= delta_t && !plane_ahead(pre.origin.into(), pre.direction, p0, p1, p2) {
         return None;
     }
     Some(TriangleHit { b0, b1, b2, t })
