@@ -169,45 +169,33 @@ impl GltfBsdf {
     pub fn new(m: &Material, wo: Vec3, front_face: bool, coat_normal: Vec3) -> GltfBsdf {
         let cos_theta_o = wo.z;
         let base_color = Vec3::from(m.base_color);
-        // A diffuse-only material is known from the material alone: return it before any
-        // layer is assembled (5.7% of a Cornell-box render's instructions went to assembling
-        // them). Materials this test passes over (a coat seen from below its horizon) are
-        // still found to be matte below.
-        let no_sheen = Vec3::from(m.sheen_color).max(Vec3::ZERO).max_element() <= 0.0;
-        let coat_weight = m.clearcoat > 0.0;
+        let volume = m.flags & MATERIAL_VOLUME != 0 && m.transmission > 0.0;
+        // Outer layers are absent from inside a solid.
+        let outside = !volume || front_face;
+        // Most materials have no coat: skip its frame and Fresnel (as the kernel's
+        // FEATURE_CLEARCOAT does for whole scenes).
+        let coat_frame = (outside && m.clearcoat > 0.0).then(|| Frame::from_z(coat_normal));
+        let coat_cos_o = coat_frame.map_or(0.0, |f| f.to_local(wo).z);
+        let coat = if coat_cos_o > 0.0 { m.clearcoat.min(1.0) } else { 0.0 };
+        let sheen_color = if outside { Vec3::from(m.sheen_color).max(Vec3::ZERO) } else { Vec3::ZERO };
+        // Nothing but the diffuse lobe: returned before the other layers are assembled
+        // (assembling them was 5.7% of a Cornell-box render's instructions).
         if m.metallic == 0.0
             && m.specular_factor == 0.0
             && m.transmission == 0.0
-            && !coat_weight
-            && no_sheen
+            && coat == 0.0
+            && sheen_color.max_element() <= 0.0
             && base_color.max_element() > 0.0
         {
             return GltfBsdf { base_color, ..Self::MATTE };
         }
         let ior = m.ior;
-        let volume = m.flags & MATERIAL_VOLUME != 0 && m.transmission > 0.0;
         let eta = if volume && !front_face { 1.0 / ior } else { ior };
         let r0 = ((ior - 1.0) / (ior + 1.0)).powi(2);
         let specular_color = Vec3::from(m.specular_color);
-        // Outer layers are absent from inside a solid.
-        let outside = !volume || front_face;
-        // Most materials have no coat: skip its frame and Fresnel (as the kernel's
-        // FEATURE_CLEARCOAT does for whole scenes).
-        let has_coat = outside && m.clearcoat > 0.0;
-        let coat_frame =
-            if has_coat { Frame::from_z(coat_normal) } else { Frame { x: Vec3::X, y: Vec3::Y, z: Vec3::Z } };
-        let coat_cos_o = if has_coat { coat_frame.to_local(wo).z } else { 0.0 };
-        let coat = if has_coat && coat_cos_o > 0.0 { m.clearcoat.min(1.0) } else { 0.0 };
-        let sheen_color = if outside { Vec3::from(m.sheen_color).max(Vec3::ZERO) } else { Vec3::ZERO };
         let sheen_table = sheen_albedo_table_if(sheen_color.max_element() > 0.0);
         let coat_fresnel_o =
             if coat > 0.0 { fresnel_schlick(Vec3::splat(CLEARCOAT_F0), 1.0, coat_cos_o).x } else { 0.0 };
-        let lambertian = m.metallic == 0.0
-            && m.specular_factor == 0.0
-            && m.transmission == 0.0
-            && coat == 0.0
-            && sheen_color.max_element() <= 0.0
-            && base_color.max_element() > 0.0;
         let mut b = GltfBsdf {
             base_color,
             metallic: m.metallic,
@@ -224,7 +212,7 @@ impl GltfBsdf {
             p_transmit: 0.0,
             coat,
             coat_alpha: super::alpha_from_roughness(m.clearcoat_roughness),
-            coat_frame,
+            coat_frame: coat_frame.unwrap_or(Self::MATTE.coat_frame),
             coat_transmittance: 1.0 - coat * coat_fresnel_o,
             sheen_color,
             sheen_roughness: m.sheen_roughness,
@@ -232,12 +220,8 @@ impl GltfBsdf {
             sheen_table,
             p_coat: 0.0,
             p_sheen: 0.0,
-            lambertian,
+            lambertian: false,
         };
-        if lambertian {
-            b.p_diffuse = 1.0;
-            return b;
-        }
         let f = b.dielectric_fresnel(cos_theta_o).max_element();
         let dielectric = 1.0 - b.metallic;
         let color = base_color.max_element();
