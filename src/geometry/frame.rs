@@ -11,6 +11,9 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// The world axes: the frame of a layer that is absent.
+    pub const IDENTITY: Frame = Frame { x: Vec3::X, y: Vec3::Y, z: Vec3::Z };
+
     /// Builds a frame around the unit vector `n` without branching on a threshold
     /// (Duff, Burgess, Christensen, Hery, Kensler, Liani & Villemin 2017, "Building an
     /// Orthonormal Basis, Revisited", JCGT 6(1), Listing 3).
