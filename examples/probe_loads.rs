@@ -35,6 +35,12 @@ impl Source {
     }
 }
 
+/// Where the table was put: a buffer (storage or uniform) or a texture's view.
+enum Table {
+    Buffer(wgpu::Buffer),
+    Texture(wgpu::TextureView),
+}
+
 fn shader(source: Source, steps: u32, entries: u32) -> String {
     let (decl, load) = match source {
         Source::Storage => (
@@ -166,16 +172,14 @@ fn main() -> ExitCode {
             };
             let buffer_type =
                 |ty| wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None };
-            let (table_type, table_buffer, table_view) = match source {
+            let (table_type, table) = match source {
                 Source::Storage => (
                     buffer_type(wgpu::BufferBindingType::Storage { read_only: true }),
-                    Some(buffer(wgpu::BufferUsages::STORAGE)),
-                    None,
+                    Table::Buffer(buffer(wgpu::BufferUsages::STORAGE)),
                 ),
                 Source::Uniform => (
                     buffer_type(wgpu::BufferBindingType::Uniform),
-                    Some(buffer(wgpu::BufferUsages::UNIFORM)),
-                    None,
+                    Table::Buffer(buffer(wgpu::BufferUsages::UNIFORM)),
                 ),
                 Source::Texture => (
                     wgpu::BindingType::Texture {
@@ -183,8 +187,7 @@ fn main() -> ExitCode {
                         view_dimension: wgpu::TextureViewDimension::D2,
                         multisampled: false,
                     },
-                    None,
-                    Some(texture_view(&data)),
+                    Table::Texture(texture_view(&data)),
                 ),
             };
             let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
@@ -200,10 +203,9 @@ fn main() -> ExitCode {
                     entry(1, buffer_type(wgpu::BufferBindingType::Storage { read_only: false })),
                 ],
             });
-            let table_resource = match (&table_buffer, &table_view) {
-                (Some(b), _) => b.as_entire_binding(),
-                (None, Some(view)) => wgpu::BindingResource::TextureView(view),
-                (None, None) => unreachable!("every source binds a buffer or a view"),
+            let table_resource = match &table {
+                Table::Buffer(b) => b.as_entire_binding(),
+                Table::Texture(view) => wgpu::BindingResource::TextureView(view),
             };
             let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: None,
