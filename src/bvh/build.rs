@@ -372,13 +372,6 @@ fn decide(prims: &mut [Primitive], split: &Split, depth: usize) -> Decision {
     if depth >= MEDIAN_SPLIT_DEPTH {
         return split_at_median(prims, axis);
     }
-    if n <= SMALL_NODE {
-        return match axis {
-            0 => small_split::<0>(prims, &split.bounds),
-            1 => small_split::<1>(prims, &split.bounds),
-            _ => small_split::<2>(prims, &split.bounds),
-        };
-    }
     match axis {
         0 => sah_split::<0>(prims, &split.bounds, c_min, c_max),
         1 => sah_split::<1>(prims, &split.bounds, c_min, c_max),
@@ -452,7 +445,8 @@ struct Plane {
 
 /// Finds the cheapest of the BIN_COUNT − 1 planes on `AXIS` and partitions there; a leaf
 /// where that is cheaper (and allowed); the object median where no plane separates the
-/// primitives (every centroid in one bin: a tiny spread at large magnitude).
+/// primitives (every centroid in one bin: a tiny spread at large magnitude). Nodes of at
+/// most [`SMALL_NODE`] primitives are priced exactly instead ([`small_split`]).
 fn sah_split<const AXIS: usize>(
     prims: &mut [Primitive],
     bounds: &Bounds4,
@@ -460,6 +454,9 @@ fn sah_split<const AXIS: usize>(
     c_max: f32,
 ) -> Decision {
     let n = prims.len();
+    if n <= SMALL_NODE {
+        return small_split::<AXIS>(prims, bounds);
+    }
     let binning = Binning::<AXIS>::new(c_min, c_max);
     let plane = cheapest_plane(prims, binning);
     let Some(plane) = plane else {
@@ -623,9 +620,9 @@ fn cheapest_plane<const AXIS: usize>(prims: &[Primitive], binning: Binning<AXIS>
 }
 
 /// Partitions in place (Lomuto: left primitives keep their order) so that the primitives
-/// in bins up to `last_left_bin` come first; returns their count. A primitive goes left when its offset x has ⌊x⌋ ≤ last_left_bin, that is when
-/// x ≥ last_left_bin + 1 is false (a NaN offset, bin 0, goes left too), which needs no
-/// conversion to an integer.
+/// in bins up to `last_left_bin` come first; returns their count. A primitive goes left
+/// when its offset x has ⌊x⌋ ≤ last_left_bin, that is when x ≥ last_left_bin + 1 is false
+/// (a NaN offset, bin 0, goes left too), which needs no conversion to an integer.
 fn partition<const AXIS: usize>(
     prims: &mut [Primitive],
     binning: Binning<AXIS>,
