@@ -418,7 +418,9 @@ impl<const AXIS: usize> Binning<AXIS> {
     /// (c − c_min)·scale, whose floor is the bin.
     #[inline(always)]
     fn offset(&self, p: &Primitive) -> f32 {
-        (lane::<AXIS>(p.centroid2()) - self.c_min) * self.scale
+        // The lane of lo + hi, added as scalars (the same sum) so that the partition, which
+        // copies whole records, reads only these two floats besides its 32-byte moves.
+        (lane::<AXIS>(p.lo) + lane::<AXIS>(p.hi) - self.c_min) * self.scale
     }
 
     /// The float-to-int cast saturates (NaN to 0), so the index is in range.
@@ -619,27 +621,43 @@ fn cheapest_plane<const AXIS: usize>(prims: &[Primitive], binning: Binning<AXIS>
     })
 }
 
-/// Partitions in place (Lomuto: left primitives keep their order) so that the primitives
-/// in bins up to `last_left_bin` come first; returns their count. A primitive goes left
-/// when its offset x has ⌊x⌋ ≤ last_left_bin, that is when x ≥ last_left_bin + 1 is false
-/// (a NaN offset, bin 0, goes left too), which needs no conversion to an integer.
+/// Partitions in place so that the primitives in bins up to `last_left_bin` come first,
+/// keeping their order; returns their count. A primitive goes left when its offset x has
+/// ⌊x⌋ ≤ last_left_bin, that is when x ≥ last_left_bin + 1 is false (a NaN offset, bin 0,
+/// goes left too), which needs no conversion to an integer.
+///
+/// Lomuto's scheme with a gap instead of swaps (the cyclic form of Bergdoll's branchless
+/// Lomuto, as in Rust's `sort_unstable` since 1.81): the first right primitive is held out,
+/// leaving a gap, and each later primitive p costs two plain copies whichever side it
+/// goes, the first right one into the gap and p into its place, after which p's old slot
+/// is the gap. Which side a primitive goes is a coin toss deep in the tree, so a branch
+/// would mispredict; the swap form needed four selects and four stores of 16 bytes per
+/// primitive instead of two 32-byte copies. The right side's order is a rotation of its
+/// original order, not the original.
 fn partition<const AXIS: usize>(
     prims: &mut [Primitive],
     binning: Binning<AXIS>,
     last_left_bin: usize,
 ) -> usize {
     let threshold = (last_left_bin + 1) as f32;
-    let mut mid = 0;
-    for i in 0..prims.len() {
-        let (p, q) = (prims[i], prims[mid]);
-        let goes_right = binning.offset(&p) >= threshold;
-        let left = glam::BVec4A::splat(!goes_right);
-        // Without a branch (which side a primitive goes is a coin toss deep in the tree):
-        // a left primitive swaps with the one at `mid`, a right one writes both back.
-        prims[mid] = Primitive { lo: Vec4::select(left, p.lo, q.lo), hi: Vec4::select(left, p.hi, q.hi) };
-        prims[i] = Primitive { lo: Vec4::select(left, q.lo, p.lo), hi: Vec4::select(left, q.hi, p.hi) };
-        mid += !goes_right as usize;
+    let goes_right = |p: &Primitive| binning.offset(p) >= threshold;
+    // The leading left primitives are in place already.
+    let Some(first_right) = prims.iter().position(goes_right) else {
+        return prims.len();
+    };
+    let held = prims[first_right];
+    let (mut gap, mut mid) = (first_right, first_right);
+    // Invariant: prims[..mid] are the left primitives so far in order, prims[mid..i] the
+    // right ones but for the slot at `gap`, whose content is stale.
+    for i in first_right + 1..prims.len() {
+        let left = !goes_right(&prims[i]);
+        prims[gap] = prims[mid];
+        prims.copy_within(i..i + 1, mid);
+        gap = i;
+        mid += left as usize;
     }
+    prims[gap] = prims[mid];
+    prims[mid] = held;
     mid
 }
 
@@ -759,19 +777,32 @@ mod tests {
                         _ => panic!("seed {seed}, n {n}: one sweep found a plane, the other none"),
                     }
                     if let Some(p) = plane {
-                        // The branchy Lomuto partition by bin index.
-                        let mut expected = prims.clone();
-                        let mut expected_mid = 0;
-                        for i in 0..expected.len() {
-                            if binning.bin(&expected[i]) <= p.last_left_bin {
-                                expected.swap(i, expected_mid);
-                                expected_mid += 1;
-                            }
-                        }
-                        let mid = partition(&mut prims, binning, p.last_left_bin);
-                        assert_eq!(mid, expected_mid, "seed {seed}, n {n}: split index");
+                        // By bin index: the left primitives in their order, then the rest
+                        // in some order.
                         let order = |v: &[Primitive]| v.iter().map(Primitive::index).collect::<Vec<_>>();
-                        assert_eq!(order(&prims), order(&expected), "seed {seed}, n {n}: order");
+                        let goes_left = |q: &&Primitive| binning.bin(q) <= p.last_left_bin;
+                        let expected_left: Vec<u32> =
+                            prims.iter().filter(goes_left).map(Primitive::index).collect();
+                        let mut expected_right: Vec<u32> =
+                            prims.iter().filter(|q| !goes_left(q)).map(Primitive::index).collect();
+                        let before = prims.clone();
+                        let mid = partition(&mut prims, binning, p.last_left_bin);
+                        assert_eq!(mid, expected_left.len(), "seed {seed}, n {n}: split index");
+                        assert_eq!(order(&prims[..mid]), expected_left, "seed {seed}, n {n}: left order");
+                        let mut right = order(&prims[mid..]);
+                        right.sort_unstable();
+                        expected_right.sort_unstable();
+                        assert_eq!(right, expected_right, "seed {seed}, n {n}: right side");
+                        // Whole records moved, not parts of them.
+                        for q in &prims {
+                            let original =
+                                &before[before.iter().position(|b| b.index() == q.index()).unwrap()];
+                            assert_eq!(
+                                xyz_bits(&q.bounds()),
+                                xyz_bits(&original.bounds()),
+                                "seed {seed}, n {n}"
+                            );
+                        }
                         let (l, r) = (Split::of(&prims[..mid]), Split::of(&prims[mid..]));
                         // The sides' centroid bounds, gathered per bin while binning.
                         assert_eq!(xyz_bits(&p.left_centroids), xyz_bits(&l.centroid_bounds));
