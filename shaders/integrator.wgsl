@@ -117,120 +117,6 @@ fn poison() -> vec3<f32> {
     return vec3<f32>(bitcast<f32>(0x7fc00000u));
 }
 
-fn radiance(camera_ray: Ray, cone: vec2<f32>) -> vec3<f32> {
-    var ray = camera_ray;
-    // Distance travelled along the path before the current ray: the cone keeps its spread.
-    var travelled = 0.0;
-    var l = vec3<f32>(0.0);
-    var beta = vec3<f32>(1.0);
-    var depth = 0u;
-    var prev_delta = true;
-    var prev_pdf = 0.0;
-    var eta_scale = 1.0;
-    loop {
-        var alpha_seed = 0u;
-        if (FEATURE_ALPHA) {
-            alpha_seed = rng_next_u32();
-        }
-        let hit = intersect_closest(ray, alpha_seed);
-        if (hit.triangle == INVALID_INDEX) {
-            if (FEATURE_ENVIRONMENT && environment.present != 0u) {
-                let env = environment_lookup(ray.direction);
-                if (depth == 0u || prev_delta || environment.light_index == INVALID_INDEX) {
-                    l += beta * env.radiance;
-                } else {
-                    let light_pdf = lights[environment.light_index].pmf * env.pdf_solid_angle;
-                    l += beta * env.radiance * power_heuristic(prev_pdf, light_pdf);
-                }
-            }
-            break;
-        }
-        let si = surface_interaction(ray, hit, cone.x + cone.y * (travelled + hit.t));
-        travelled += si.distance;
-        let untextured = materials[si.material];
-        let material = textured_material(untextured, si.uv, si.lod);
-
-        if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
-            beta *= exp(-material.attenuation_coefficient * si.distance);
-        }
-
-        // Full weight: the cone's level of detail; weighted against light sampling: level 0,
-        // what light sampling sees (the CPU twin explains).
-        if (max_element(untextured.emission) > 0.0 && (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
-            if (depth == 0u || prev_delta || si.emitter == INVALID_INDEX) {
-                l += beta * material.emission;
-            } else {
-                let light_pdf = triangle_light_pdf(lights[si.emitter], triangles[hit.triangle], ray.origin, si.p);
-                l += beta * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(prev_pdf, light_pdf);
-            }
-        }
-
-        if (depth >= frame.max_depth || depth >= MAX_BOUNCES_GUARD) {
-            break;
-        }
-        let bsdf = gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal);
-
-        if (has_non_delta(bsdf) && frame.light_count > 0u) {
-            let u_select = rng_next_2d();
-            let u_light = rng_next_2d();
-            let ls = sample_light(si.p, si.p_error, si.n_geometric, u_select, u_light);
-            if (ls.valid) {
-                let wi = frame_to_local(si.frame, ls.wi);
-                var f = vec3<f32>(0.0);
-                if (sides_agree(si, ls.wi, wi)) {
-                    f = gltf_bsdf_eval(bsdf, si.wo, wi);
-                }
-                var unoccluded = false;
-                if (max_element(f) > 0.0) {
-                    var shadow_seed = 0u;
-                    if (FEATURE_ALPHA) {
-                        shadow_seed = rng_next_u32();
-                    }
-                    unoccluded = !intersect_any(ls.shadow_ray, shadow_seed);
-                }
-                if (unoccluded) {
-                    let contribution = beta * f * abs(wi.z) * ls.radiance;
-                    if (ls.is_delta) {
-                        l += contribution / ls.pdf;
-                    } else {
-                        let w = power_heuristic(ls.pdf, gltf_bsdf_pdf(bsdf, si.wo, wi));
-                        l += contribution * w / ls.pdf;
-                    }
-                }
-            }
-        }
-
-        let u_lobe = rng_next_1d();
-        let u_dir = rng_next_2d();
-        let bs = gltf_bsdf_sample(bsdf, si.wo, u_lobe, u_dir);
-        if (!bs.valid) {
-            break;
-        }
-        let wi_world = normalize(frame_from_local(si.frame, bs.wi));
-        if (!sides_agree(si, wi_world, bs.wi)) {
-            break;
-        }
-        beta *= bs.weight;
-        if (!is_finite_vec3(beta)) {
-            return poison();
-        }
-        prev_delta = bs.is_delta;
-        prev_pdf = bs.pdf_solid_angle;
-        eta_scale *= bs.eta_scale;
-        depth += 1u;
-        ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
-
-        if (depth >= frame.rr_min_depth) {
-            let q = min(max_element(beta * eta_scale), RR_MAX_SURVIVAL);
-            if (q <= 0.0 || rng_next_1d() >= q) {
-                break;
-            }
-            beta /= q;
-        }
-    }
-    return l;
-}
-
 // The pixel (x, y) of invocation `gid` within this dispatch's band of rows
 // [row_offset, row_offset + row_count); z = 0 when it lies outside the band or the image.
 fn band_pixel(gid: vec3<u32>) -> vec3<u32> {
@@ -240,11 +126,21 @@ fn band_pixel(gid: vec3<u32>) -> vec3<u32> {
 }
 
 // One invocation per pixel of the band: adds `samples` samples, starting at index
-// `sample_offset`, to the pixel's running statistics.
+// `sample_offset`, to the pixel's running statistics. The path is the CPU twin's
+// (`radiance` in src/cpu/integrator.rs), bounce for bounce.
+//
+// Path regeneration (Novák, Havran & Dachsbacher 2010, "Path regeneration for interactive
+// path tracing"): the outer loop runs bounces, not samples, and an invocation whose path
+// has ended starts the pixel's next sample at once. With a loop over samples around a loop
+// over bounces, the invocations that execute together (eight lanes of a vector on
+// lavapipe, a warp or wave on a GPU) all wait for the longest of their paths before any
+// starts its next sample, and Russian roulette makes path lengths vary widely. Each pixel's
+// samples still end, and reach the film, in index order, so the image is bit for bit the one
+// the nested loops gave.
 @compute @workgroup_size(8, 8, 1)
 fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     let px = band_pixel(gid);
-    if (px.z == 0u) {
+    if (px.z == 0u || frame.samples == 0u) {
         return;
     }
     let x = px.x;
@@ -253,11 +149,144 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     var p = film[pixel];
     rays_traced = 0u;
     let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
-    for (var k = 0u; k < frame.samples; k++) {
-        let sample_index = frame.sample_offset + k;
-        sampler_start(frame.sampler_kind, x, y, sample_index, frame.seed);
-        let ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
-        p = film_add_sample(p, radiance(ray, cone), replicate_of(sample_index));
+    // The path of sample `sample_offset + k`.
+    var k = 0u;
+    sampler_start(frame.sampler_kind, x, y, frame.sample_offset, frame.seed);
+    var ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
+    // Distance travelled along the path before the current ray: the cone keeps its spread.
+    var travelled = 0.0;
+    var l = vec3<f32>(0.0);
+    var beta = vec3<f32>(1.0);
+    var depth = 0u;
+    var prev_delta = true;
+    var prev_pdf = 0.0;
+    // Product of η² over the refractions so far, taken out of roulette (the CPU twin explains).
+    var eta_scale = 1.0;
+    loop {
+        // One bounce: the inner loop runs once, and a `break` from it ends the path (its
+        // radiance in `l`), as a `break` ends the CPU twin's bounce loop.
+        var path_ended = true;
+        loop {
+            var alpha_seed = 0u;
+            if (FEATURE_ALPHA) {
+                alpha_seed = rng_next_u32();
+            }
+            let hit = intersect_closest(ray, alpha_seed);
+            if (hit.triangle == INVALID_INDEX) {
+                if (FEATURE_ENVIRONMENT && environment.present != 0u) {
+                    let env = environment_lookup(ray.direction);
+                    if (depth == 0u || prev_delta || environment.light_index == INVALID_INDEX) {
+                        l += beta * env.radiance;
+                    } else {
+                        let light_pdf = lights[environment.light_index].pmf * env.pdf_solid_angle;
+                        l += beta * env.radiance * power_heuristic(prev_pdf, light_pdf);
+                    }
+                }
+                break;
+            }
+            let si = surface_interaction(ray, hit, cone.x + cone.y * (travelled + hit.t));
+            travelled += si.distance;
+            let untextured = materials[si.material];
+            let material = textured_material(untextured, si.uv, si.lod);
+
+            if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
+                beta *= exp(-material.attenuation_coefficient * si.distance);
+            }
+
+            // Full weight: the cone's level of detail; weighted against light sampling: level 0,
+            // what light sampling sees (the CPU twin explains).
+            if (max_element(untextured.emission) > 0.0 && (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
+                if (depth == 0u || prev_delta || si.emitter == INVALID_INDEX) {
+                    l += beta * material.emission;
+                } else {
+                    let light_pdf = triangle_light_pdf(lights[si.emitter], triangles[hit.triangle], ray.origin, si.p);
+                    l += beta * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(prev_pdf, light_pdf);
+                }
+            }
+
+            if (depth >= frame.max_depth || depth >= MAX_BOUNCES_GUARD) {
+                break;
+            }
+            let bsdf = gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal);
+
+            if (has_non_delta(bsdf) && frame.light_count > 0u) {
+                let u_select = rng_next_2d();
+                let u_light = rng_next_2d();
+                let ls = sample_light(si.p, si.p_error, si.n_geometric, u_select, u_light);
+                if (ls.valid) {
+                    let wi = frame_to_local(si.frame, ls.wi);
+                    var f = vec3<f32>(0.0);
+                    if (sides_agree(si, ls.wi, wi)) {
+                        f = gltf_bsdf_eval(bsdf, si.wo, wi);
+                    }
+                    var unoccluded = false;
+                    if (max_element(f) > 0.0) {
+                        var shadow_seed = 0u;
+                        if (FEATURE_ALPHA) {
+                            shadow_seed = rng_next_u32();
+                        }
+                        unoccluded = !intersect_any(ls.shadow_ray, shadow_seed);
+                    }
+                    if (unoccluded) {
+                        let contribution = beta * f * abs(wi.z) * ls.radiance;
+                        if (ls.is_delta) {
+                            l += contribution / ls.pdf;
+                        } else {
+                            let w = power_heuristic(ls.pdf, gltf_bsdf_pdf(bsdf, si.wo, wi));
+                            l += contribution * w / ls.pdf;
+                        }
+                    }
+                }
+            }
+
+            let u_lobe = rng_next_1d();
+            let u_dir = rng_next_2d();
+            let bs = gltf_bsdf_sample(bsdf, si.wo, u_lobe, u_dir);
+            if (!bs.valid) {
+                break;
+            }
+            let wi_world = normalize(frame_from_local(si.frame, bs.wi));
+            if (!sides_agree(si, wi_world, bs.wi)) {
+                break;
+            }
+            beta *= bs.weight;
+            if (!is_finite_vec3(beta)) {
+                l = poison();
+                break;
+            }
+            prev_delta = bs.is_delta;
+            prev_pdf = bs.pdf_solid_angle;
+            eta_scale *= bs.eta_scale;
+            depth += 1u;
+            ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
+
+            if (depth >= frame.rr_min_depth) {
+                let q = min(max_element(beta * eta_scale), RR_MAX_SURVIVAL);
+                if (q <= 0.0 || rng_next_1d() >= q) {
+                    break;
+                }
+                beta /= q;
+            }
+            path_ended = false;
+            break;
+        }
+        if (path_ended) {
+            let sample_index = frame.sample_offset + k;
+            p = film_add_sample(p, l, replicate_of(sample_index));
+            k += 1u;
+            if (k == frame.samples) {
+                break;
+            }
+            sampler_start(frame.sampler_kind, x, y, sample_index + 1u, frame.seed);
+            ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
+            travelled = 0.0;
+            l = vec3<f32>(0.0);
+            beta = vec3<f32>(1.0);
+            depth = 0u;
+            prev_delta = true;
+            prev_pdf = 0.0;
+            eta_scale = 1.0;
+        }
     }
     film[pixel] = p;
     ray_counts[pixel] += rays_traced;

@@ -19,6 +19,10 @@ use crate::scene::FlatScene;
 const TARGET_SUBMIT_SECONDS: f64 = 0.1;
 /// Submits queued at once: one running while the next waits, so completions overlap work.
 const MAX_IN_FLIGHT: usize = 2;
+/// The most samples per pixel a band of rows gets in one submit on a device too slow for
+/// the whole image: several, so that the kernel's path regeneration (`render` in
+/// shaders/integrator.wgsl) has a next sample to start where a lane's path ends early.
+const BAND_SAMPLES: u32 = 8;
 /// Waiting longer than this for one submit means the GPU hung; report it rather than hang.
 const SUBMIT_TIMEOUT: Duration = Duration::from_secs(120);
 /// Compute workgroup edge (shaders/integrator.wgsl `@workgroup_size(8, 8, 1)`).
@@ -381,8 +385,13 @@ impl Backend for GpuBackend {
                     if full_image <= TARGET_SUBMIT_SECONDS {
                         (((TARGET_SUBMIT_SECONDS / full_image) as u32).clamp(1, remaining), h)
                     } else {
-                        let rows = (TARGET_SUBMIT_SECONDS / (rate * w as f64)) as u32;
-                        (1, rows.clamp(1, h))
+                        // Bands of whole workgroup rows, each with up to BAND_SAMPLES samples
+                        // per pixel (a partial workgroup row runs idle lanes).
+                        let row = rate * w as f64;
+                        let spp = ((TARGET_SUBMIT_SECONDS / (row * WORKGROUP as f64)) as u32)
+                            .clamp(1, remaining.min(BAND_SAMPLES));
+                        let rows = (TARGET_SUBMIT_SECONDS / (row * spp as f64)) as u32;
+                        (spp, ((rows / WORKGROUP).max(1) * WORKGROUP).min(h))
                     }
                 }
             };
