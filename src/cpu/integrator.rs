@@ -2,7 +2,9 @@
 //! (Veach 1997, ch. 9; pbrt-v4 `PathIntegrator`).
 //!
 //! WGSL twin: `shaders/integrator.wgsl` (same function names and the same order of random
-//! numbers, so that one seed gives the same paths on both backends up to rounding).
+//! numbers, so that one seed gives the same paths on both backends up to rounding). The
+//! kernel has no `radiance`: its `render` runs this function's bounce loop itself, so that
+//! a lane whose path ends can start its pixel's next sample (path regeneration).
 //!
 //! Bounce semantics, shared by both backends: depth 0 is the camera ray; `depth` counts the
 //! scattering events a path has had. Emission seen directly (depth 0) is always counted.
