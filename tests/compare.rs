@@ -119,14 +119,20 @@ fn renders_against_a_high_sample_reference_pass_and_real_differences_fail() {
         eprintln!("cornell at {spp} spp against the {REFERENCE_SPP}-spp reference: {same}/{TRIALS} pass");
         assert!(same >= TRIALS - 1, "{spp} spp: only {same}/{TRIALS} pass");
     }
-    // Power: each difference must be found every time.
-    for (what, scene) in
-        [("back wall 3% darker", back_wall_scaled(0.97)), ("light 2% brighter", light_scaled(1.02))]
+    // Power, measured over 200 seeds at 64 spp (2026-11-24): the darker back wall was found
+    // every time, so it must be found in all 20 tries. The brighter light was missed 4 times
+    // in 200 (about 2%), so 20 tries may miss it once or twice; at a 2% miss rate three
+    // misses or more in 20 have probability 0.7%, and would mean the detector lost power.
+    for (what, scene, allowed_misses) in
+        [("back wall 3% darker", back_wall_scaled(0.97), 0), ("light 2% brighter", light_scaled(1.02), 2)]
     {
         let scene = flatten(&scene);
         let same = passes(|k| (render(&scene, DETECT_SPP, k + 1), reference.clone()));
         eprintln!("{what} at {DETECT_SPP} spp: detected {}/{TRIALS}", TRIALS - same);
-        assert_eq!(same, 0, "{what} at {DETECT_SPP} spp went unnoticed {same} times in {TRIALS}");
+        assert!(
+            same <= allowed_misses,
+            "{what} at {DETECT_SPP} spp went unnoticed {same} times in {TRIALS} (at most {allowed_misses} allowed)"
+        );
     }
 }
 
