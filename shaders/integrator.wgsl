@@ -149,20 +149,33 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     var p = film[pixel];
     rays_traced = 0u;
     let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
-    // The path of sample `sample_offset + k`.
+    // The path of sample `sample_offset + k`, started at the top of the loop whenever
+    // `start_path` is set (WGSL zero-initialises the rest until then).
     var k = 0u;
-    sampler_start(frame.sampler_kind, x, y, frame.sample_offset, frame.seed);
-    var ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
+    var start_path = true;
+    var ray: Ray;
     // Distance travelled along the path before the current ray: the cone keeps its spread.
-    var travelled = 0.0;
-    var l = vec3<f32>(0.0);
-    var beta = vec3<f32>(1.0);
-    var depth = 0u;
-    var prev_delta = true;
-    var prev_pdf = 0.0;
+    var travelled: f32;
+    var l: vec3<f32>;
+    var beta: vec3<f32>;
+    var depth: u32;
+    var prev_delta: bool;
+    var prev_pdf: f32;
     // Product of η² over the refractions so far, taken out of roulette (the CPU twin explains).
-    var eta_scale = 1.0;
+    var eta_scale: f32;
     loop {
+        if (start_path) {
+            sampler_start(frame.sampler_kind, x, y, frame.sample_offset + k, frame.seed);
+            ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
+            travelled = 0.0;
+            l = vec3<f32>(0.0);
+            beta = vec3<f32>(1.0);
+            depth = 0u;
+            prev_delta = true;
+            prev_pdf = 0.0;
+            eta_scale = 1.0;
+            start_path = false;
+        }
         // One bounce: the inner loop runs once, and a `break` from it ends the path (its
         // radiance in `l`), as a `break` ends the CPU twin's bounce loop.
         var path_ended = true;
@@ -271,21 +284,12 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
             break;
         }
         if (path_ended) {
-            let sample_index = frame.sample_offset + k;
-            p = film_add_sample(p, l, replicate_of(sample_index));
+            p = film_add_sample(p, l, replicate_of(frame.sample_offset + k));
             k += 1u;
             if (k == frame.samples) {
                 break;
             }
-            sampler_start(frame.sampler_kind, x, y, sample_index + 1u, frame.seed);
-            ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
-            travelled = 0.0;
-            l = vec3<f32>(0.0);
-            beta = vec3<f32>(1.0);
-            depth = 0u;
-            prev_delta = true;
-            prev_pdf = 0.0;
-            eta_scale = 1.0;
+            start_path = true;
         }
     }
     film[pixel] = p;
