@@ -278,11 +278,12 @@ pub fn radiance(
 
         // Next-event estimation.
         if bsdf.has_non_delta() && !scene.lights.is_empty() {
-            // The light choice and the point on the light are consecutive dimensions, drawn
-            // together. With one light there is nothing to choose (the kernel draws the
-            // number anyway; skipping it keeps the stream): most environment-lit scenes.
+            // The light choice and the point on the light are consecutive dimensions. With
+            // one light there is nothing to choose (the kernel draws the number anyway;
+            // skipping it keeps the stream): most environment-lit scenes.
             let (u_select, u_light) = if scene.lights.len() > 1 {
-                rng.next_2d_pair()
+                let u_select = rng.next_2d();
+                (u_select, rng.next_2d())
             } else {
                 rng.skip_2d();
                 (Vec2::ZERO, rng.next_2d())

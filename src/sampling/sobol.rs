@@ -7,7 +7,8 @@
 //! power-of-two prefix of them is stratified like a (0,m,2)-net. Each dimension shuffles the
 //! sample order with its own seed (a nested uniform scramble of the index), which pads the
 //! dimensions together without correlating them, and Owen-scrambles both coordinates.
-//! Paths of any length are covered: dimensions are never exhausted.
+//! Paths of any length are covered: dimensions are never exhausted. The CPU computes a
+//! path's dimensions eight at a time, 8-wide (`sobol_batch`), and hands them out in order.
 //!
 //! Owen scrambling keeps the estimator unbiased but makes the samples of a pixel dependent,
 //! so their sample variance no longer measures the mean's error (it over-states it where the
@@ -104,45 +105,46 @@ fn sobol_second_reversed(i: u32) -> u32 {
     r
 }
 
-/// [`hash_u32`] on four lanes.
-#[inline(always)]
-fn hash_u32x4(mut x: UVec4) -> UVec4 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(UVec4::splat(0x7feb_352d));
-    x ^= x >> 15;
-    x = x.wrapping_mul(UVec4::splat(0x846c_a68b));
-    x ^= x >> 16;
-    x
+/// Dimensions a [`PathSampler`] draws at once: eight 32-bit lanes, one AVX2 register.
+const BATCH: usize = 8;
+
+/// The golden-ratio step between dimensions' seeds.
+const DIMENSION_STEP: u32 = 0x9e37_79b9;
+
+/// Dimension `dimension`'s seed and the sample's shuffled index there.
+fn dimension_seed_and_index(pixel_seed: u32, index_reversed: u32, dimension: u32) -> (u32, u32) {
+    let dimension_seed = hash_u32(pixel_seed ^ dimension.wrapping_mul(DIMENSION_STEP));
+    // Nested uniform scramble of the index (Burley 2020 §4): the first 2^m samples map to
+    // one aligned block of 2^m Sobol indices, so each prefix stays a (0,m,2)-net.
+    (dimension_seed, owen_scramble_reversed(index_reversed, dimension_seed))
 }
 
-/// [`owen_scramble_reversed`] on four lanes: [`lk_permute`], then the bits reversed by
-/// swapping ever-larger blocks (the vector unit has no bit-reverse instruction).
-#[inline(always)]
-fn owen_scramble_reversed_x4(mut x: UVec4, seed: UVec4) -> UVec4 {
-    let c = UVec4::splat;
-    x ^= x.wrapping_mul(c(0x3d20_adea));
-    x = x.wrapping_add(seed);
-    x = x.wrapping_mul((seed >> 16) | c(1));
-    x ^= x.wrapping_mul(c(0x0552_6c56));
-    x ^= x.wrapping_mul(c(0x53a2_2864));
-    x = ((x >> 1) & c(0x5555_5555)) | ((x & c(0x5555_5555)) << 1);
-    x = ((x >> 2) & c(0x3333_3333)) | ((x & c(0x3333_3333)) << 2);
-    x = ((x >> 4) & c(0x0f0f_0f0f)) | ((x & c(0x0f0f_0f0f)) << 4);
-    x = ((x >> 8) & c(0x00ff_00ff)) | ((x & c(0x00ff_00ff)) << 8);
-    (x >> 16) | (x << 16)
-}
-
-/// [`sobol_second_reversed`] on four lanes.
-#[inline(always)]
-fn sobol_second_reversed_x4(i: UVec4) -> UVec4 {
-    let c = UVec4::splat;
-    let mut r = i;
-    r ^= (r >> 1) & c(0x5555_5555);
-    r ^= (r >> 2) & c(0x3333_3333);
-    r ^= (r >> 4) & c(0x0f0f_0f0f);
-    r ^= (r >> 8) & c(0x00ff_00ff);
-    r ^= (r >> 16) & c(0x0000_ffff);
-    r
+/// The points of dimensions `first .. first + BATCH`: the index shuffled by each
+/// dimension's seed, then its x (the first Sobol component, the bit-reversed index: van der
+/// Corput) and its y (the second) Owen-scrambled by seeds derived from it. Written as loops
+/// over eight lanes of plain integer operations, which the compiler turns into 8-wide AVX2
+/// (the bit reversals included): eight dimensions cost about what two did one at a time.
+/// The tests hold it to `sobol_point`, the same definition one dimension at a time.
+fn sobol_batch(pixel_seed: u32, index_reversed: u32, first: u32) -> [[f32; BATCH]; 2] {
+    let mut seed = [0u32; BATCH];
+    for (i, s) in seed.iter_mut().enumerate() {
+        *s = hash_u32(pixel_seed ^ first.wrapping_add(i as u32).wrapping_mul(DIMENSION_STEP));
+    }
+    let mut shuffled = [0u32; BATCH];
+    for i in 0..BATCH {
+        shuffled[i] = owen_scramble_reversed(index_reversed, seed[i]);
+    }
+    let mut out = [[0.0f32; BATCH]; 2];
+    for i in 0..BATCH {
+        out[0][i] = fraction_to_f32(owen_scramble_reversed(shuffled[i], hash_u32(seed[i] ^ 1)));
+    }
+    for i in 0..BATCH {
+        out[1][i] = fraction_to_f32(owen_scramble_reversed(
+            sobol_second_reversed(shuffled[i]),
+            hash_u32(seed[i] ^ 2),
+        ));
+    }
+    out
 }
 
 /// Top 24 bits of a fraction as a float in [0, 1), each value exactly representable.
@@ -160,6 +162,11 @@ pub enum PathSampler {
         index_reversed: u32,
         /// The next dimension to hand out.
         dimension: u32,
+        /// The first dimension in `batch`.
+        batch_first: u32,
+        /// Dimensions `batch_first ..` as numbers in [0, 1): `batch[0]` the x, `batch[1]`
+        /// the y coordinates.
+        batch: [[f32; BATCH]; 2],
     },
     Independent(Rng),
 }
@@ -168,75 +175,78 @@ impl PathSampler {
     /// The numbers of sample `sample_index` of pixel `(x, y)` under `seed`.
     pub fn new(kind: SamplerKind, x: u32, y: u32, sample_index: u32, seed: u32) -> PathSampler {
         match kind {
-            SamplerKind::Sobol => PathSampler::Sobol {
-                pixel_seed: pcg4d(UVec4::new(x, y, seed, replicate_of(sample_index))).x,
-                index_reversed: (sample_index >> 1).reverse_bits(),
-                dimension: 0,
-            },
+            SamplerKind::Sobol => {
+                let pixel_seed = pcg4d(UVec4::new(x, y, seed, replicate_of(sample_index))).x;
+                let index_reversed = (sample_index >> 1).reverse_bits();
+                PathSampler::Sobol {
+                    pixel_seed,
+                    index_reversed,
+                    dimension: 0,
+                    batch_first: 0,
+                    // Every path draws its camera jitter from dimension 0.
+                    batch: sobol_batch(pixel_seed, index_reversed, 0),
+                }
+            }
             SamplerKind::Independent => PathSampler::Independent(Rng::new(x, y, sample_index, seed)),
         }
     }
 
-    /// The next dimension's seed and the sample's shuffled index there.
-    fn next_dimension(pixel_seed: u32, index_reversed: u32, dimension: &mut u32) -> (u32, u32) {
-        let dimension_seed = hash_u32(pixel_seed ^ dimension.wrapping_mul(0x9e37_79b9));
+    /// The next dimension's point (x, y), from the batch, refilled from this
+    /// dimension on when it has run out.
+    #[inline(always)]
+    fn next_sobol_point(
+        pixel_seed: u32,
+        index_reversed: u32,
+        dimension: &mut u32,
+        batch_first: &mut u32,
+        batch: &mut [[f32; BATCH]; 2],
+    ) -> (f32, f32) {
+        let d = *dimension;
         *dimension += 1;
-        // Nested uniform scramble of the index (Burley 2020 §4): the first 2^m samples map
-        // to one aligned block of 2^m Sobol indices, so each prefix stays a (0,m,2)-net.
-        let shuffled = owen_scramble_reversed(index_reversed, dimension_seed);
-        (dimension_seed, shuffled)
+        let mut lane = d.wrapping_sub(*batch_first) as usize;
+        if lane >= BATCH {
+            Self::refill(pixel_seed, index_reversed, d, batch_first, batch);
+            lane = 0;
+        }
+        (batch[0][lane], batch[1][lane])
+    }
+
+    /// Out of line, so that a draw from the batch saves no registers for it.
+    #[cold]
+    #[inline(never)]
+    fn refill(
+        pixel_seed: u32,
+        index_reversed: u32,
+        first: u32,
+        batch_first: &mut u32,
+        batch: &mut [[f32; BATCH]; 2],
+    ) {
+        *batch = sobol_batch(pixel_seed, index_reversed, first);
+        *batch_first = first;
     }
 
     /// A uniform 32-bit integer (stochastic alpha's hash input), not stratified.
     pub fn next_u32(&mut self) -> u32 {
         match self {
-            PathSampler::Sobol { pixel_seed, index_reversed, dimension } => {
+            PathSampler::Sobol { pixel_seed, index_reversed, dimension, .. } => {
                 let (dimension_seed, shuffled) =
-                    Self::next_dimension(*pixel_seed, *index_reversed, dimension);
+                    dimension_seed_and_index(*pixel_seed, *index_reversed, *dimension);
+                *dimension += 1;
                 hash_u32(dimension_seed ^ shuffled)
             }
             PathSampler::Independent(rng) => rng.next_u32(),
         }
     }
 
-    /// Uniform in [0, 1).
+    /// Uniform in [0, 1): the x coordinate of the next dimension.
     pub fn next_1d(&mut self) -> f32 {
         match self {
-            PathSampler::Sobol { pixel_seed, index_reversed, dimension } => {
-                let (dimension_seed, shuffled) =
-                    Self::next_dimension(*pixel_seed, *index_reversed, dimension);
-                // The first Sobol component is the bit-reversed index (van der Corput).
-                fraction_to_f32(owen_scramble_reversed(shuffled, hash_u32(dimension_seed ^ 1)))
+            PathSampler::Sobol { pixel_seed, index_reversed, dimension, batch_first, batch } => {
+                let (x, _) =
+                    Self::next_sobol_point(*pixel_seed, *index_reversed, dimension, batch_first, batch);
+                x
             }
             PathSampler::Independent(rng) => rng.next_1d(),
-        }
-    }
-
-    /// Two 2-D points, the next two dimensions: exactly what two calls of
-    /// [`Self::next_2d`] return, the Sobol work done four lanes wide (the two dimensions'
-    /// index shuffles side by side, then their four coordinate scrambles).
-    pub fn next_2d_pair(&mut self) -> (Vec2, Vec2) {
-        match self {
-            PathSampler::Sobol { pixel_seed, index_reversed, dimension } => {
-                let d = *dimension;
-                *dimension += 2;
-                // Lanes (d, d + 1, d, d + 1).
-                let dims = UVec4::new(d, d.wrapping_add(1), d, d.wrapping_add(1));
-                let dimension_seed =
-                    hash_u32x4(UVec4::splat(*pixel_seed) ^ dims.wrapping_mul(UVec4::splat(0x9e37_79b9)));
-                let shuffled = owen_scramble_reversed_x4(UVec4::splat(*index_reversed), dimension_seed);
-                let second = sobol_second_reversed_x4(shuffled);
-                // Lanes: x of d, x of d + 1, y of d, y of d + 1.
-                let coordinates = UVec4::new(shuffled.x, shuffled.y, second.z, second.w);
-                let seeds = hash_u32x4(dimension_seed ^ UVec4::new(1, 1, 2, 2));
-                let u = owen_scramble_reversed_x4(coordinates, seeds);
-                let f = fraction_to_f32;
-                (Vec2::new(f(u.x), f(u.z)), Vec2::new(f(u.y), f(u.w)))
-            }
-            PathSampler::Independent(rng) => {
-                let a = rng.next_2d();
-                (a, rng.next_2d())
-            }
         }
     }
 
@@ -268,12 +278,10 @@ impl PathSampler {
     /// Uniform in [0, 1)².
     pub fn next_2d(&mut self) -> Vec2 {
         match self {
-            PathSampler::Sobol { pixel_seed, index_reversed, dimension } => {
-                let (dimension_seed, shuffled) =
-                    Self::next_dimension(*pixel_seed, *index_reversed, dimension);
-                let x = owen_scramble_reversed(shuffled, hash_u32(dimension_seed ^ 1));
-                let y = owen_scramble_reversed(sobol_second_reversed(shuffled), hash_u32(dimension_seed ^ 2));
-                Vec2::new(fraction_to_f32(x), fraction_to_f32(y))
+            PathSampler::Sobol { pixel_seed, index_reversed, dimension, batch_first, batch } => {
+                let (x, y) =
+                    Self::next_sobol_point(*pixel_seed, *index_reversed, dimension, batch_first, batch);
+                Vec2::new(x, y)
             }
             PathSampler::Independent(rng) => rng.next_2d(),
         }
@@ -312,26 +320,37 @@ mod tests {
         }
     }
 
-    /// Drawing two points at once gives what two draws give, dimension after dimension,
-    /// for both samplers and over the whole range of indices.
+    /// One dimension's point straight from the definition, as the kernel computes it
+    /// (`shaders/sampling.wgsl`).
+    fn sobol_point(pixel_seed: u32, index_reversed: u32, dimension: u32) -> Vec2 {
+        let (dimension_seed, shuffled) = dimension_seed_and_index(pixel_seed, index_reversed, dimension);
+        let x = owen_scramble_reversed(shuffled, hash_u32(dimension_seed ^ 1));
+        let y = owen_scramble_reversed(sobol_second_reversed(shuffled), hash_u32(dimension_seed ^ 2));
+        Vec2::new(fraction_to_f32(x), fraction_to_f32(y))
+    }
+
+    /// The sampler hands out dimensions eight at a time from a batch; every draw, across
+    /// batch boundaries and after skips, is the definition's point of its dimension.
     #[test]
-    fn a_pair_of_points_is_two_points() {
-        let mut rng = Rng::new(7, 7, 7, 7);
-        for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
-            for _ in 0..2_000 {
-                let (x, y, k, seed) =
-                    (rng.next_u32() % 4096, rng.next_u32() % 4096, rng.next_u32(), rng.next_u32());
-                let (mut one, mut two) =
-                    (PathSampler::new(kind, x, y, k, seed), PathSampler::new(kind, x, y, k, seed));
-                for _ in 0..3 {
-                    let (a, b) = two.next_2d_pair();
-                    assert_eq!(
-                        (one.next_2d(), one.next_2d()),
-                        (a, b),
-                        "{kind:?} pixel ({x}, {y}) sample {k}"
-                    );
-                    assert_eq!(one.next_1d(), two.next_1d());
+    fn batched_dimensions_are_the_definition() {
+        let mut rng = Rng::new(9, 8, 7, 6);
+        for _ in 0..500 {
+            let (x, y, k, seed) =
+                (rng.next_u32() % 4096, rng.next_u32() % 4096, rng.next_u32(), rng.next_u32());
+            let mut sampler = PathSampler::new(SamplerKind::Sobol, x, y, k, seed);
+            let PathSampler::Sobol { pixel_seed, index_reversed, .. } = sampler else { unreachable!() };
+            let mut d = 0u32;
+            // Up to 40 dimensions, drawn as 2-D, 1-D or skipped at random: batches are
+            // entered at every lane.
+            while d < 40 {
+                let expect = sobol_point(pixel_seed, index_reversed, d);
+                match rng.next_u32() % 4 {
+                    0 => assert_eq!(sampler.next_2d(), expect, "pixel ({x}, {y}) sample {k} dimension {d}"),
+                    1 => assert_eq!(sampler.next_1d(), expect.x, "pixel ({x}, {y}) sample {k} dimension {d}"),
+                    2 => sampler.skip_1d(),
+                    _ => sampler.skip_2d(),
                 }
+                d += 1;
             }
         }
     }
