@@ -222,8 +222,7 @@ fn ray_triangle_precomp(ray: Ray) -> RayTrianglePrecomp {
 // Woop, Benthin & Wald 2013 with pbrt-v4's conservative t test; twin of
 // `intersect_triangle_precomp` in src/geometry/triangle.rs.
 fn intersect_triangle_precomp(pre: RayTrianglePrecomp, t_max: f32, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>) -> TriangleHit {
-    let c = cross(p2 - p0, p1 - p0);
-    if (!pre.valid || dot(c, c) == 0.0) {
+    if (!pre.valid) {
         return no_triangle_hit();
     }
     let k = pre.k;
@@ -248,6 +247,11 @@ fn intersect_triangle_precomp(pre: RayTrianglePrecomp, t_max: f32, p0: vec3<f32>
     }
     let det = e0 + e1 + e2;
     if (det == 0.0) {
+        return no_triangle_hit();
+    }
+    // Degenerate triangles: tested where most rays have already missed (see the twin).
+    let c = cross(p2 - p0, p1 - p0);
+    if (dot(c, c) == 0.0) {
         return no_triangle_hit();
     }
 

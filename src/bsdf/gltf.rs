@@ -356,6 +356,7 @@ impl GltfBsdf {
     }
 
     /// The non-delta part of f(wo, wi), without the cosine.
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if wo.z <= 0.0 {
             return Vec3::ZERO;
@@ -363,6 +364,12 @@ impl GltfBsdf {
         if self.lambertian {
             return self.base_color * lambert_eval(wi);
         }
+        self.eval_layered(wo, wi)
+    }
+
+    /// [`Self::eval`] of a layered BSDF (out of line: the matte path above is inlined).
+    #[inline(never)]
+    fn eval_layered(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         let base = self.base_eval(wo, wi);
         if wi.z > 0.0 {
             let sheen = if self.has_sheen() {
@@ -409,6 +416,7 @@ impl GltfBsdf {
 
     /// Density per solid angle with which [`Self::sample`] produces `wi` from its non-delta
     /// lobes.
+    #[inline(always)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 {
             return 0.0;
@@ -416,6 +424,12 @@ impl GltfBsdf {
         if self.lambertian {
             return lambert_pdf(wi);
         }
+        self.pdf_layered(wo, wi)
+    }
+
+    /// [`Self::pdf`] of a layered BSDF.
+    #[inline(never)]
+    fn pdf_layered(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wi.z > 0.0 {
             let mut p =
                 (self.p_diffuse + self.p_sheen) * lambert_pdf(wi) + self.p_coat * self.coat_pdf(wo, wi);
@@ -436,6 +450,7 @@ impl GltfBsdf {
     }
 
     /// Samples an incident direction. `u_lobe` picks the lobe, `u` the direction within it.
+    #[inline(always)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
@@ -453,6 +468,12 @@ impl GltfBsdf {
                 eta_scale: 1.0,
             });
         }
+        self.sample_layered(wo, u_lobe, u)
+    }
+
+    /// [`Self::sample`] of a layered BSDF.
+    #[inline(never)]
+    fn sample_layered(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         let dielectric = 1.0 - self.metallic;
         // Lobes in the order coat, sheen, reflection, diffuse, transmission along u_lobe.
         let u_lobe = u_lobe - self.p_coat - self.p_sheen;

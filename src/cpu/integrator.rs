@@ -80,6 +80,10 @@ pub struct SurfaceInteraction {
 
 /// Builds the interaction for `hit` of `ray` (`ray.direction` unit length), whose ray cone
 /// is `cone_width` wide at the hit (texture level of detail, `src/scene/texture.rs`).
+///
+/// Inlined, so that the fields a scene does not use are never stored (out of line, the
+/// call and its 150-byte result were 2.2% of a Cornell-box render's instructions).
+#[inline(always)]
 pub fn surface_interaction(
     scene: &FlatScene,
     ray: &Ray,

@@ -20,6 +20,7 @@ pub const SHADOW_EPSILON: f32 = 1e-4;
 /// surface, using the point's conservative error bound `p_error` (pbrt-v4 §6.8.6
 /// `OffsetRayOrigin`): offset along the geometric normal by the error box's projection, then
 /// round each component away from the surface.
+#[inline(always)]
 pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n_geometric: Vec3, w: Vec3) -> Vec3 {
     let d = n_geometric.abs().dot(p_error);
     let mut offset = n_geometric * d;

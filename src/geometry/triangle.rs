@@ -102,8 +102,7 @@ pub fn intersect_triangle_precomp(
     p1: Vec3,
     p2: Vec3,
 ) -> Option<TriangleHit> {
-    // Degenerate triangles have no surface to hit.
-    if !pre.valid || (p2 - p0).cross(p1 - p0).length_squared() == 0.0 {
+    if !pre.valid {
         return None;
     }
     // Translate to the ray origin, permute so the ray's dominant axis is z, shear so the ray
@@ -121,6 +120,12 @@ pub fn intersect_triangle_precomp(
     }
     let det = e0 + e1 + e2;
     if det == 0.0 {
+        return None;
+    }
+    // Degenerate triangles have no surface to hit, though the shear's rounding can leave
+    // their projection a sliver. Tested only here, where most rays have already missed by
+    // the edge signs: the same answer as testing first, for a fraction of the work.
+    if (p2 - p0).cross(p1 - p0).length_squared() == 0.0 {
         return None;
     }
 

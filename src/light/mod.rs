@@ -79,6 +79,7 @@ pub fn spot_falloff(light: &Light, cos_theta: f32) -> f32 {
 
 /// Samples incident light at surface point `p` (error bound `p_error`, geometric normal
 /// `n_geometric`, used only to offset the shadow ray).
+#[inline(always)]
 pub fn sample_light(
     arrays: LightArrays,
     p: Vec3,
