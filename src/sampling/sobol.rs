@@ -152,22 +152,75 @@ fn fraction_to_f32(u: u32) -> f32 {
     (u >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+/// One path's Sobol numbers: its dimensions handed out in order, computed eight at a time.
+#[derive(Clone, Debug)]
+pub struct SobolStream {
+    /// Hash of (pixel, seed, replicate): the root of every dimension's scrambling.
+    pixel_seed: u32,
+    /// The sample's index within its replicate, bit-reversed.
+    index_reversed: u32,
+    /// The next dimension to hand out.
+    dimension: u32,
+    /// The first dimension in `batch`.
+    batch_first: u32,
+    /// Dimensions `batch_first ..` as numbers in [0, 1): `batch[0]` the x, `batch[1]` the y
+    /// coordinates.
+    batch: [[f32; BATCH]; 2],
+}
+
+impl SobolStream {
+    fn new(pixel_seed: u32, index_reversed: u32) -> SobolStream {
+        SobolStream {
+            pixel_seed,
+            index_reversed,
+            dimension: 0,
+            batch_first: 0,
+            // Every path draws its camera jitter from dimension 0.
+            batch: sobol_batch(pixel_seed, index_reversed, 0),
+        }
+    }
+
+    /// The next dimension's point (x, y), from the batch, refilled from this dimension on
+    /// when it has run out.
+    #[inline(always)]
+    fn next_point(&mut self) -> (f32, f32) {
+        let d = self.dimension;
+        self.dimension += 1;
+        let mut lane = d.wrapping_sub(self.batch_first) as usize;
+        if lane >= BATCH {
+            self.refill(d);
+            lane = 0;
+        }
+        (self.batch[0][lane], self.batch[1][lane])
+    }
+
+    /// Out of line and marked cold (it runs at most once per eight draws), so that a draw
+    /// from the batch saves no registers for it.
+    #[cold]
+    #[inline(never)]
+    fn refill(&mut self, first: u32) {
+        self.batch = sobol_batch(self.pixel_seed, self.index_reversed, first);
+        self.batch_first = first;
+    }
+
+    /// Passes over the next dimension.
+    fn skip(&mut self) {
+        self.dimension += 1;
+    }
+
+    /// A uniform 32-bit integer from the next dimension, not stratified.
+    fn next_u32(&mut self) -> u32 {
+        let (dimension_seed, shuffled) =
+            dimension_seed_and_index(self.pixel_seed, self.index_reversed, self.dimension);
+        self.dimension += 1;
+        hash_u32(dimension_seed ^ shuffled)
+    }
+}
+
 /// The random numbers of one sample (one path) of one pixel.
 #[derive(Clone, Debug)]
 pub enum PathSampler {
-    Sobol {
-        /// Hash of (pixel, seed, replicate): the root of every dimension's scrambling.
-        pixel_seed: u32,
-        /// The sample's index within its replicate, bit-reversed.
-        index_reversed: u32,
-        /// The next dimension to hand out.
-        dimension: u32,
-        /// The first dimension in `batch`.
-        batch_first: u32,
-        /// Dimensions `batch_first ..` as numbers in [0, 1): `batch[0]` the x, `batch[1]`
-        /// the y coordinates.
-        batch: [[f32; BATCH]; 2],
-    },
+    Sobol(SobolStream),
     Independent(Rng),
 }
 
@@ -175,65 +228,18 @@ impl PathSampler {
     /// The numbers of sample `sample_index` of pixel `(x, y)` under `seed`.
     pub fn new(kind: SamplerKind, x: u32, y: u32, sample_index: u32, seed: u32) -> PathSampler {
         match kind {
-            SamplerKind::Sobol => {
-                let pixel_seed = pcg4d(UVec4::new(x, y, seed, replicate_of(sample_index))).x;
-                let index_reversed = (sample_index >> 1).reverse_bits();
-                PathSampler::Sobol {
-                    pixel_seed,
-                    index_reversed,
-                    dimension: 0,
-                    batch_first: 0,
-                    // Every path draws its camera jitter from dimension 0.
-                    batch: sobol_batch(pixel_seed, index_reversed, 0),
-                }
-            }
+            SamplerKind::Sobol => PathSampler::Sobol(SobolStream::new(
+                pcg4d(UVec4::new(x, y, seed, replicate_of(sample_index))).x,
+                (sample_index >> 1).reverse_bits(),
+            )),
             SamplerKind::Independent => PathSampler::Independent(Rng::new(x, y, sample_index, seed)),
         }
-    }
-
-    /// The next dimension's point (x, y), from the batch, refilled from this
-    /// dimension on when it has run out.
-    #[inline(always)]
-    fn next_sobol_point(
-        pixel_seed: u32,
-        index_reversed: u32,
-        dimension: &mut u32,
-        batch_first: &mut u32,
-        batch: &mut [[f32; BATCH]; 2],
-    ) -> (f32, f32) {
-        let d = *dimension;
-        *dimension += 1;
-        let mut lane = d.wrapping_sub(*batch_first) as usize;
-        if lane >= BATCH {
-            Self::refill(pixel_seed, index_reversed, d, batch_first, batch);
-            lane = 0;
-        }
-        (batch[0][lane], batch[1][lane])
-    }
-
-    /// Out of line, so that a draw from the batch saves no registers for it.
-    #[cold]
-    #[inline(never)]
-    fn refill(
-        pixel_seed: u32,
-        index_reversed: u32,
-        first: u32,
-        batch_first: &mut u32,
-        batch: &mut [[f32; BATCH]; 2],
-    ) {
-        *batch = sobol_batch(pixel_seed, index_reversed, first);
-        *batch_first = first;
     }
 
     /// A uniform 32-bit integer (stochastic alpha's hash input), not stratified.
     pub fn next_u32(&mut self) -> u32 {
         match self {
-            PathSampler::Sobol { pixel_seed, index_reversed, dimension, .. } => {
-                let (dimension_seed, shuffled) =
-                    dimension_seed_and_index(*pixel_seed, *index_reversed, *dimension);
-                *dimension += 1;
-                hash_u32(dimension_seed ^ shuffled)
-            }
+            PathSampler::Sobol(stream) => stream.next_u32(),
             PathSampler::Independent(rng) => rng.next_u32(),
         }
     }
@@ -241,11 +247,7 @@ impl PathSampler {
     /// Uniform in [0, 1): the x coordinate of the next dimension.
     pub fn next_1d(&mut self) -> f32 {
         match self {
-            PathSampler::Sobol { pixel_seed, index_reversed, dimension, batch_first, batch } => {
-                let (x, _) =
-                    Self::next_sobol_point(*pixel_seed, *index_reversed, dimension, batch_first, batch);
-                x
-            }
+            PathSampler::Sobol(stream) => stream.next_point().0,
             PathSampler::Independent(rng) => rng.next_1d(),
         }
     }
@@ -256,7 +258,7 @@ impl PathSampler {
     /// which draws it, follows.
     pub fn skip_1d(&mut self) {
         match self {
-            PathSampler::Sobol { dimension, .. } => *dimension += 1,
+            PathSampler::Sobol(stream) => stream.skip(),
             PathSampler::Independent(rng) => {
                 rng.next_u32();
             }
@@ -267,7 +269,7 @@ impl PathSampler {
     /// independent numbers), as [`Self::skip_1d`] does.
     pub fn skip_2d(&mut self) {
         match self {
-            PathSampler::Sobol { dimension, .. } => *dimension += 1,
+            PathSampler::Sobol(stream) => stream.skip(),
             PathSampler::Independent(rng) => {
                 rng.next_u32();
                 rng.next_u32();
@@ -278,9 +280,8 @@ impl PathSampler {
     /// Uniform in [0, 1)².
     pub fn next_2d(&mut self) -> Vec2 {
         match self {
-            PathSampler::Sobol { pixel_seed, index_reversed, dimension, batch_first, batch } => {
-                let (x, y) =
-                    Self::next_sobol_point(*pixel_seed, *index_reversed, dimension, batch_first, batch);
+            PathSampler::Sobol(stream) => {
+                let (x, y) = stream.next_point();
                 Vec2::new(x, y)
             }
             PathSampler::Independent(rng) => rng.next_2d(),
@@ -338,11 +339,12 @@ mod tests {
             let (x, y, k, seed) =
                 (rng.next_u32() % 4096, rng.next_u32() % 4096, rng.next_u32(), rng.next_u32());
             let mut sampler = PathSampler::new(SamplerKind::Sobol, x, y, k, seed);
-            let PathSampler::Sobol { pixel_seed, index_reversed, .. } = sampler else { unreachable!() };
-            let mut d = 0u32;
-            // Up to 40 dimensions, drawn as 2-D, 1-D or skipped at random: batches are
-            // entered at every lane.
-            while d < 40 {
+            let PathSampler::Sobol(SobolStream { pixel_seed, index_reversed, .. }) = sampler else {
+                unreachable!()
+            };
+            // 40 dimensions, drawn as 2-D, 1-D or skipped at random: batches are entered at
+            // every lane.
+            for d in 0..40 {
                 let expect = sobol_point(pixel_seed, index_reversed, d);
                 match rng.next_u32() % 4 {
                     0 => assert_eq!(sampler.next_2d(), expect, "pixel ({x}, {y}) sample {k} dimension {d}"),
@@ -350,7 +352,6 @@ mod tests {
                     2 => sampler.skip_1d(),
                     _ => sampler.skip_2d(),
                 }
-                d += 1;
             }
         }
     }
