@@ -174,17 +174,23 @@ impl GltfBsdf {
     /// constructor tests again.
     #[inline(always)]
     pub fn new(m: &Material, wo: Vec3, front_face: bool, coat_normal: Vec3) -> GltfBsdf {
-        let base_color = Vec3::from(m.base_color);
-        if m.metallic == 0.0
-            && m.specular_factor == 0.0
-            && m.transmission == 0.0
-            && m.clearcoat <= 0.0
-            && Vec3::from(m.sheen_color).max_element() <= 0.0
-            && base_color.max_element() > 0.0
-        {
-            return GltfBsdf { base_color, ..Self::MATTE };
+        // The coat's weight before its horizon test: zero here means no coat from anywhere.
+        if Self::diffuse_only(m, m.clearcoat.max(0.0), Vec3::from(m.sheen_color).max(Vec3::ZERO)) {
+            return GltfBsdf { base_color: Vec3::from(m.base_color), ..Self::MATTE };
         }
         Self::new_layered(m, wo, front_face, coat_normal)
+    }
+
+    /// Does material `m`, with coat weight `coat` and sheen colour `sheen_color` as seen
+    /// from the outgoing direction, have nothing but the diffuse lobe?
+    #[inline(always)]
+    fn diffuse_only(m: &Material, coat: f32, sheen_color: Vec3) -> bool {
+        m.metallic == 0.0
+            && m.specular_factor == 0.0
+            && m.transmission == 0.0
+            && coat == 0.0
+            && sheen_color.max_element() <= 0.0
+            && Vec3::from(m.base_color).max_element() > 0.0
     }
 
     /// [`Self::new`] for every other material.
@@ -203,13 +209,7 @@ impl GltfBsdf {
         let sheen_color = if outside { Vec3::from(m.sheen_color).max(Vec3::ZERO) } else { Vec3::ZERO };
         // Nothing but the diffuse lobe: returned before the other layers are assembled
         // (assembling them was 5.7% of a Cornell-box render's instructions).
-        if m.metallic == 0.0
-            && m.specular_factor == 0.0
-            && m.transmission == 0.0
-            && coat == 0.0
-            && sheen_color.max_element() <= 0.0
-            && base_color.max_element() > 0.0
-        {
+        if Self::diffuse_only(m, coat, sheen_color) {
             return GltfBsdf { base_color, ..Self::MATTE };
         }
         let ior = m.ior;
