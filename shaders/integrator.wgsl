@@ -4,6 +4,7 @@
 
 const MAX_BOUNCES_GUARD: u32 = 1024u;
 const RR_MAX_SURVIVAL: f32 = 0.95;
+const RR_ANY_BOUNCE_DEPTH: u32 = 8u;
 
 struct SurfaceInteraction {
     p: vec3<f32>,
@@ -163,6 +164,8 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     var prev_pdf: f32;
     // Product of η² over the refractions so far, taken out of roulette (the CPU twin explains).
     var eta_scale: f32;
+    // Bounces that sampled a non-delta lobe: where roulette starts (the CPU twin explains).
+    var non_delta_depth: u32;
     loop {
         if (start_path) {
             sampler_start(frame.sampler_kind, x, y, frame.sample_offset + k, frame.seed);
@@ -174,6 +177,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
             prev_delta = true;
             prev_pdf = 0.0;
             eta_scale = 1.0;
+            non_delta_depth = 0u;
             start_path = false;
         }
         // One bounce: the inner loop runs once, and a `break` from it ends the path (its
@@ -273,7 +277,10 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
             depth += 1u;
             ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
 
-            if (depth >= frame.rr_min_depth) {
+            if (!bs.is_delta) {
+                non_delta_depth += 1u;
+            }
+            if (non_delta_depth >= frame.rr_min_depth || depth >= RR_ANY_BOUNCE_DEPTH) {
                 let q = min(max_element(beta * eta_scale), RR_MAX_SURVIVAL);
                 if (q <= 0.0 || rng_next_1d() >= q) {
                     break;

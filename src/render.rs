@@ -18,7 +18,8 @@ pub struct RenderSettings {
     pub seed: u32,
     /// Most scattering events per path; `None`: unlimited (Russian roulette ends paths).
     pub max_depth: Option<u32>,
-    /// Russian roulette starts once a path has this many scattering events.
+    /// Russian roulette starts once a path has this many non-delta scattering events
+    /// (`crate::cpu::IntegratorSettings::rr_min_depth`).
     pub rr_min_depth: u32,
     /// Where the paths' random numbers come from.
     pub sampler: SamplerKind,

@@ -7,6 +7,6 @@ mod renderer;
 
 pub use integrator::{
     first_hit, radiance, surface_interaction, IntegratorSettings, SurfaceInteraction, MAX_BOUNCES_GUARD,
-    RR_MAX_SURVIVAL,
+    RR_ANY_BOUNCE_DEPTH, RR_MAX_SURVIVAL,
 };
 pub use renderer::CpuBackend;

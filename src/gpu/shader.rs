@@ -156,6 +156,7 @@ mod tests {
             ("REGISTER_STACK_SIZE", crate::gpu::REGISTER_STACK_SIZE as f64),
             ("MAX_BOUNCES_GUARD", crate::cpu::MAX_BOUNCES_GUARD as f64),
             ("RR_MAX_SURVIVAL", crate::cpu::RR_MAX_SURVIVAL as f64),
+            ("RR_ANY_BOUNCE_DEPTH", crate::cpu::RR_ANY_BOUNCE_DEPTH as f64),
             ("LOBE_SELECTION_FLOOR", crate::bsdf::LOBE_SELECTION_FLOOR as f64),
             ("MIN_ALPHA", crate::bsdf::MIN_ALPHA as f64),
             ("CLEARCOAT_F0", crate::bsdf::CLEARCOAT_F0 as f64),

@@ -351,7 +351,8 @@ gpu_struct! {
         pub seed: u32,
         /// Most scattering events a path may have (`u32::MAX`: unlimited).
         pub max_depth: u32,
-        /// Russian roulette applies once a path has this many scattering events.
+        /// Russian roulette applies once a path has this many non-delta scattering events
+        /// (`crate::cpu::IntegratorSettings::rr_min_depth`).
         pub rr_min_depth: u32,
         pub light_count: u32,
         /// First image row of this dispatch.
