@@ -8,7 +8,7 @@ use crate::geometry::{
 use crate::scene::layout::{BvhNode, Triangle};
 
 use super::build::MAX_DEPTH;
-use super::wide::{traverse_wide, WideBvh};
+use super::wide::{traverse_wide, traverse_wide_any, WideBvh};
 
 /// Entries in the traversal stack: one per level is enough, because each level pushes at
 /// most one deferred child.
@@ -94,6 +94,12 @@ pub trait Traversal {
     /// Calls `visit(first, count, ray)` for the leaves the ray may touch, nearer first, until
     /// it returns `true`; `visit` may shorten `ray.t_max`.
     fn traverse(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool);
+
+    /// [`Traversal::traverse`] for a query that stops at the first hit it accepts, whose
+    /// answer does not depend on the order the leaves come in.
+    fn traverse_any(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
+        self.traverse(ray, visit)
+    }
 }
 
 impl Traversal for [BvhNode] {
@@ -111,6 +117,10 @@ impl Traversal for Vec<BvhNode> {
 impl Traversal for WideBvh {
     fn traverse(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
         traverse_wide(self, ray, visit)
+    }
+
+    fn traverse_any(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
+        traverse_wide_any(self, ray, visit)
     }
 }
 
@@ -164,7 +174,7 @@ pub fn intersect_any_filtered<T: Traversal + ?Sized>(
     let mut ray = *ray;
     let mut found = false;
     let pre = RayTrianglePrecomp::new(&ray);
-    tree.traverse(&mut ray, |first, count, ray| {
+    tree.traverse_any(&mut ray, |first, count, ray| {
         for i in first..first + count {
             let (p0, p1, p2) = vertices(&triangles[i as usize]);
             if let Some(hit) = intersect_triangle_precomp(&pre, ray.t_max, p0, p1, p2) {
