@@ -39,7 +39,8 @@ pub const RR_MAX_SURVIVAL: f32 = 0.95;
 /// (`IntegratorSettings::rr_min_depth` counts only those that did): a path between parallel
 /// mirrors would otherwise never meet it. Long enough for the delta chains of glass objects
 /// (8 kept the whole gain of 12 and 16 on the mirror-and-glass Cornell box, 6 lost most of
-/// it), short enough that the mirror box's paths cost 1.17× as many rays, not 1.5×.
+/// it), short enough that the mirror box renders in 1.17× the time of counting every
+/// bounce, where 16 took 1.5×.
 pub const RR_ANY_BOUNCE_DEPTH: u32 = 8;
 
 #[derive(Clone, Copy, Debug, PartialEq)]

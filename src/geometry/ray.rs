@@ -58,8 +58,9 @@ fn round_away_scalar(po: Vec3, offset: Vec3) -> Vec3 {
 #[inline(always)]
 fn round_away(po: Vec3, offset: Vec3) -> Vec3 {
     use core::arch::x86_64::*;
-    // SAFETY: the intrinsics only read and write registers, and the cfg builds this only
-    // where SSE4.1 is enabled for the whole program.
+    // SAFETY: the intrinsics touch registers and the local array `out` (four floats, the
+    // store's width) only, and the cfg builds this only where SSE4.1 is enabled for the
+    // whole program.
     unsafe {
         let v = _mm_setr_ps(po.x, po.y, po.z, 0.0);
         let o = _mm_setr_ps(offset.x, offset.y, offset.z, 0.0);
