@@ -8,7 +8,7 @@ use crate::geometry::{
 use crate::scene::layout::{BvhNode, Triangle};
 
 use super::build::MAX_DEPTH;
-use super::wide::{traverse_wide, traverse_wide_any, WideBvh};
+use super::wide::{traverse_wide, WideBvh};
 
 /// Entries in the traversal stack: one per level is enough, because each level pushes at
 /// most one deferred child.
@@ -116,11 +116,11 @@ impl Traversal for Vec<BvhNode> {
 
 impl Traversal for WideBvh {
     fn traverse(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
-        traverse_wide(self, ray, visit)
+        traverse_wide::<true>(self, ray, visit)
     }
 
     fn traverse_any(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
-        traverse_wide_any(self, ray, visit)
+        traverse_wide::<false>(self, ray, visit)
     }
 }
 

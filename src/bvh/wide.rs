@@ -193,33 +193,25 @@ fn wide_box_entry<const PARALLEL: bool>(pre: &RayWidePrecomp, t_max: f32, node: 
     (t_near, t_near.cmple(exit).and(within).bitmask())
 }
 
-/// Visits the leaves the ray may touch, nearer boxes first; `visit(first, count, ray)` tests
-/// a leaf's triangles, may shorten `ray.t_max`, and returns `true` to stop. A deferred child
-/// whose entry lies beyond the nearest hit found meanwhile is dropped.
-pub fn traverse_wide(bvh: &WideBvh, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
+/// Visits the leaves the ray may touch; `visit(first, count, ray)` tests a leaf's triangles,
+/// may shorten `ray.t_max`, and returns `true` to stop. A deferred child whose entry lies
+/// beyond the nearest hit found meanwhile is dropped. `NEAREST_FIRST`: the overlapped
+/// children of a node are visited nearer boxes first (closest-hit queries); without it in
+/// lane order, which saves the sort where the answer does not depend on the order (any-hit
+/// queries: shadow rays).
+pub fn traverse_wide<const NEAREST_FIRST: bool>(
+    bvh: &WideBvh,
+    ray: &mut Ray,
+    visit: impl FnMut(u32, u32, &mut Ray) -> bool,
+) {
     if bvh.nodes.is_empty() {
         return;
     }
     let pre = RayWidePrecomp::new(ray);
     if pre.any_parallel() {
-        traverse_wide_with::<true, true>(bvh, &pre, ray, visit)
+        traverse_wide_with::<true, NEAREST_FIRST>(bvh, &pre, ray, visit)
     } else {
-        traverse_wide_with::<false, true>(bvh, &pre, ray, visit)
-    }
-}
-
-/// [`traverse_wide`] for queries that stop at any hit (shadow rays): the overlapped children
-/// are visited in lane order rather than nearest first, which saves the sort and finds the
-/// same answer, since whether anything is hit does not depend on the order.
-pub fn traverse_wide_any(bvh: &WideBvh, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
-    if bvh.nodes.is_empty() {
-        return;
-    }
-    let pre = RayWidePrecomp::new(ray);
-    if pre.any_parallel() {
-        traverse_wide_with::<true, false>(bvh, &pre, ray, visit)
-    } else {
-        traverse_wide_with::<false, false>(bvh, &pre, ray, visit)
+        traverse_wide_with::<false, NEAREST_FIRST>(bvh, &pre, ray, visit)
     }
 }
 

@@ -111,9 +111,15 @@ const BATCH: usize = 8;
 /// The golden-ratio step between dimensions' seeds.
 const DIMENSION_STEP: u32 = 0x9e37_79b9;
 
+/// Dimension `dimension`'s seed: the root of its index shuffle and its two scrambles.
+#[inline(always)]
+fn dimension_seed(pixel_seed: u32, dimension: u32) -> u32 {
+    hash_u32(pixel_seed ^ dimension.wrapping_mul(DIMENSION_STEP))
+}
+
 /// Dimension `dimension`'s seed and the sample's shuffled index there.
 fn dimension_seed_and_index(pixel_seed: u32, index_reversed: u32, dimension: u32) -> (u32, u32) {
-    let dimension_seed = hash_u32(pixel_seed ^ dimension.wrapping_mul(DIMENSION_STEP));
+    let dimension_seed = dimension_seed(pixel_seed, dimension);
     // Nested uniform scramble of the index (Burley 2020 §4): the first 2^m samples map to
     // one aligned block of 2^m Sobol indices, so each prefix stays a (0,m,2)-net.
     (dimension_seed, owen_scramble_reversed(index_reversed, dimension_seed))
@@ -128,7 +134,7 @@ fn dimension_seed_and_index(pixel_seed: u32, index_reversed: u32, dimension: u32
 fn sobol_batch(pixel_seed: u32, index_reversed: u32, first: u32) -> [[f32; BATCH]; 2] {
     let mut seed = [0u32; BATCH];
     for (i, s) in seed.iter_mut().enumerate() {
-        *s = hash_u32(pixel_seed ^ first.wrapping_add(i as u32).wrapping_mul(DIMENSION_STEP));
+        *s = dimension_seed(pixel_seed, first.wrapping_add(i as u32));
     }
     let mut shuffled = [0u32; BATCH];
     for i in 0..BATCH {
