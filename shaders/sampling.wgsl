@@ -104,11 +104,19 @@ fn fraction_to_f32(u: u32) -> f32 {
     return f32(u >> 8u) * (1.0 / 16777216.0);
 }
 
+// The golden-ratio step between dimensions' seeds.
+const DIMENSION_STEP: u32 = 0x9e3779b9u;
+
+// Dimension `dimension`'s seed: the root of its index shuffle and its two scrambles.
+fn dimension_seed(pixel_seed: u32, dimension: u32) -> u32 {
+    return hash_u32(pixel_seed ^ (dimension * DIMENSION_STEP));
+}
+
 // The next dimension's seed and this sample's shuffled index there.
 fn sobol_next_dimension() -> vec2<u32> {
-    let dimension_seed = hash_u32(rng_s.x ^ (rng_s.z * 0x9e3779b9u));
+    let seed = dimension_seed(rng_s.x, rng_s.z);
     rng_s.z += 1u;
-    return vec2<u32>(dimension_seed, owen_scramble_reversed(rng_s.y, dimension_seed));
+    return vec2<u32>(seed, owen_scramble_reversed(rng_s.y, seed));
 }
 
 fn rng_next_u32() -> u32 {

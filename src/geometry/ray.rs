@@ -2,8 +2,6 @@
 
 use glam::Vec3;
 
-use super::float::{next_float_down, next_float_up};
-
 /// A ray `origin + t·direction`, `t ∈ (0, t_max)`. `direction` need not be unit length.
 #[derive(Clone, Copy, Debug)]
 pub struct Ray {
@@ -31,13 +29,13 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n_geometric: Vec3, w: Vec3) -> 
 }
 
 /// Each component of `po` one float further in the direction of `offset`'s component:
-/// [`next_float_up`] where it is positive, [`next_float_down`] where negative, unchanged
+/// [`next_float_up`](super::float::next_float_up) where it is positive,
+/// [`next_float_down`](super::float::next_float_down) where negative, unchanged
 /// where zero. The scalar reference: three data-dependent branches per component.
-#[cfg_attr(
-    all(target_arch = "x86_64", target_feature = "sse4.1"),
-    allow(dead_code, reason = "the reference the SSE form is tested against")
-)]
+/// Built where the SSE form is not, and in tests as the reference it is held to.
+#[cfg(any(test, not(all(target_arch = "x86_64", target_feature = "sse4.1"))))]
 fn round_away_scalar(po: Vec3, offset: Vec3) -> Vec3 {
+    use super::float::{next_float_down, next_float_up};
     let round = |po: f32, o: f32| {
         if o > 0.0 {
             next_float_up(po)

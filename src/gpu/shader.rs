@@ -164,6 +164,7 @@ mod tests {
             ("MIN_SHEEN_ROUGHNESS", crate::bsdf::sheen::MIN_SHEEN_ROUGHNESS as f64),
             ("SHEEN_ALBEDO_SIZE", crate::bsdf::sheen::SHEEN_ALBEDO_SIZE as f64),
             ("SHADOW_EPSILON", crate::geometry::SHADOW_EPSILON as f64),
+            ("DIMENSION_STEP", crate::sampling::DIMENSION_STEP as f64),
         ];
         for (name, value) in shared {
             assert_eq!(constant(name), *value, "constant {name}: WGSL vs Rust");

@@ -109,7 +109,7 @@ fn sobol_second_reversed(i: u32) -> u32 {
 const BATCH: usize = 8;
 
 /// The golden-ratio step between dimensions' seeds.
-const DIMENSION_STEP: u32 = 0x9e37_79b9;
+pub(crate) const DIMENSION_STEP: u32 = 0x9e37_79b9;
 
 /// Dimension `dimension`'s seed: the root of its index shuffle and its two scrambles.
 #[inline(always)]
