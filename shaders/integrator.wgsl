@@ -126,6 +126,37 @@ fn band_pixel(gid: vec3<u32>) -> vec3<u32> {
     return vec3<u32>(gid.x, y, select(0u, 1u, inside));
 }
 
+// A path between bounces (twin of the CPU's `PathState`).
+struct PathState {
+    // The ray to trace next (unit direction).
+    ray: Ray,
+    // Distance travelled along the path before `ray`: the cone keeps its spread.
+    travelled: f32,
+    // Throughput.
+    beta: vec3<f32>,
+    // Scattering events so far (0 for the camera ray).
+    depth: u32,
+    // Did the last scattering sample a delta lobe (or is this the camera ray)?
+    prev_delta: bool,
+    // The last BSDF sample's solid-angle density, for MIS against light sampling.
+    prev_pdf: f32,
+    // Product of η² over the refractions so far, taken out of roulette (the CPU twin explains).
+    eta_scale: f32,
+    // Bounces that sampled a non-delta lobe: where roulette starts (the CPU twin explains).
+    non_delta_depth: u32,
+}
+
+// Where a split sample's continuations start (the CPU twin's `radiance` explains
+// splitting): the vertex, the path up to it, its sampler state and the radiance gathered
+// before the split.
+struct SplitVertex {
+    si: SurfaceInteraction,
+    bsdf: GltfBsdf,
+    path: PathState,
+    rng: vec4<u32>,
+    l_prefix: vec3<f32>,
+}
+
 // One invocation per pixel of the band: adds `samples` samples, starting at index
 // `sample_offset`, to the pixel's running statistics. The path is the CPU twin's
 // (`radiance` in src/cpu/integrator.rs), bounce for bounce.
@@ -137,7 +168,8 @@ fn band_pixel(gid: vec3<u32>) -> vec3<u32> {
 // lavapipe, a warp or wave on a GPU) all wait for the longest of their paths before any
 // starts its next sample, and Russian roulette makes path lengths vary widely. Each pixel's
 // samples still end, and reach the film, in index order, so the image is bit for bit the one
-// the nested loops gave.
+// the nested loops gave. A split sample's continuations are regenerated the same way: each
+// starts from the saved vertex when the one before it ends.
 @compute @workgroup_size(8, 8, 1)
 fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     let px = band_pixel(gid);
@@ -154,108 +186,96 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     // `start_path` is set (WGSL zero-initialises the rest until then).
     var k = 0u;
     var start_path = true;
-    var ray: Ray;
-    // Distance travelled along the path before the current ray: the cone keeps its spread.
-    var travelled: f32;
+    var path: PathState;
+    // The radiance of the path (of the current continuation once the sample has split).
     var l: vec3<f32>;
-    var beta: vec3<f32>;
-    var depth: u32;
-    var prev_delta: bool;
-    var prev_pdf: f32;
-    // Product of η² over the refractions so far, taken out of roulette (the CPU twin explains).
-    var eta_scale: f32;
-    // Bounces that sampled a non-delta lobe: where roulette starts (the CPU twin explains).
-    var non_delta_depth: u32;
+    var poisoned: bool;
+    // Splitting: has this sample split, which continuation is being traced, does the next
+    // bounce start it from `split_vertex`, and the sum of the continuations' radiance.
+    var split = false;
+    var split_j = 0u;
+    var resume_split = false;
+    var split_vertex: SplitVertex;
+    var split_sum: vec3<f32>;
     loop {
         if (start_path) {
             sampler_start(frame.sampler_kind, x, y, frame.sample_offset + k, frame.seed);
-            ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
-            travelled = 0.0;
+            let camera_ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
+            path = PathState(camera_ray, 0.0, vec3<f32>(1.0), 0u, true, 0.0, 1.0, 0u);
             l = vec3<f32>(0.0);
-            beta = vec3<f32>(1.0);
-            depth = 0u;
-            prev_delta = true;
-            prev_pdf = 0.0;
-            eta_scale = 1.0;
-            non_delta_depth = 0u;
+            poisoned = false;
+            split = false;
             start_path = false;
         }
         // One bounce: the inner loop runs once, and a `break` from it ends the path (its
         // radiance in `l`), as a `break` ends the CPU twin's bounce loop.
         var path_ended = true;
         loop {
-            var alpha_seed = 0u;
-            if (FEATURE_ALPHA) {
-                alpha_seed = rng_next_u32();
-            }
-            let hit = intersect_closest(ray, alpha_seed);
-            if (hit.triangle == INVALID_INDEX) {
-                if (FEATURE_ENVIRONMENT && environment.present != 0u) {
-                    let env = environment_lookup(ray.direction);
-                    if (depth == 0u || prev_delta || environment.light_index == INVALID_INDEX) {
-                        l += beta * env.radiance;
-                    } else {
-                        let light_pdf = lights[environment.light_index].pmf * env.pdf_solid_angle;
-                        l += beta * env.radiance * power_heuristic(prev_pdf, light_pdf);
-                    }
+            var si: SurfaceInteraction;
+            var bsdf: GltfBsdf;
+            if (resume_split) {
+                // The next continuation: from the split vertex, with its own numbers.
+                resume_split = false;
+                si = split_vertex.si;
+                bsdf = split_vertex.bsdf;
+                path = split_vertex.path;
+                sampler_split(split_vertex.rng, split_j, frame.splits);
+            } else {
+                var alpha_seed = 0u;
+                if (FEATURE_ALPHA) {
+                    alpha_seed = rng_next_u32();
                 }
-                break;
-            }
-            let si = surface_interaction(ray, hit, cone.x + cone.y * (travelled + hit.t));
-            travelled += si.distance;
-            let untextured = materials[si.material];
-            let material = textured_material(untextured, si.uv, si.lod);
-
-            if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
-                beta *= exp(-material.attenuation_coefficient * si.distance);
-            }
-
-            // Full weight: the cone's level of detail; weighted against light sampling: level 0,
-            // what light sampling sees (the CPU twin explains).
-            if (max_element(untextured.emission) > 0.0 && (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
-                if (depth == 0u || prev_delta || si.emitter == INVALID_INDEX) {
-                    l += beta * material.emission;
-                } else {
-                    let light_pdf = triangle_light_pdf(lights[si.emitter], triangles[hit.triangle], ray.origin, si.p);
-                    l += beta * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(prev_pdf, light_pdf);
-                }
-            }
-
-            if (depth >= frame.max_depth || depth >= MAX_BOUNCES_GUARD) {
-                break;
-            }
-            let bsdf = gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal);
-
-            if (has_non_delta(bsdf) && frame.light_count > 0u) {
-                let u_select = rng_next_2d();
-                let u_light = rng_next_2d();
-                let ls = sample_light(si.p, si.p_error, si.n_geometric, u_select, u_light);
-                if (ls.valid) {
-                    let wi = frame_to_local(si.frame, ls.wi);
-                    var f = vec3<f32>(0.0);
-                    if (sides_agree(si, ls.wi, wi)) {
-                        f = gltf_bsdf_eval(bsdf, si.wo, wi);
-                    }
-                    var unoccluded = false;
-                    if (max_element(f) > 0.0) {
-                        var shadow_seed = 0u;
-                        if (FEATURE_ALPHA) {
-                            shadow_seed = rng_next_u32();
-                        }
-                        unoccluded = !intersect_any(ls.shadow_ray, shadow_seed);
-                    }
-                    if (unoccluded) {
-                        let contribution = beta * f * abs(wi.z) * ls.radiance;
-                        if (ls.is_delta) {
-                            l += contribution / ls.pdf;
+                let hit = intersect_closest(path.ray, alpha_seed);
+                if (hit.triangle == INVALID_INDEX) {
+                    if (FEATURE_ENVIRONMENT && environment.present != 0u) {
+                        let env = environment_lookup(path.ray.direction);
+                        if (path.depth == 0u || path.prev_delta || environment.light_index == INVALID_INDEX) {
+                            l += path.beta * env.radiance;
                         } else {
-                            let w = power_heuristic(ls.pdf, gltf_bsdf_pdf(bsdf, si.wo, wi));
-                            l += contribution * w / ls.pdf;
+                            let light_pdf = lights[environment.light_index].pmf * env.pdf_solid_angle;
+                            l += path.beta * env.radiance * power_heuristic(path.prev_pdf, light_pdf);
                         }
                     }
+                    break;
+                }
+                si = surface_interaction(path.ray, hit, cone.x + cone.y * (path.travelled + hit.t));
+                path.travelled += si.distance;
+                let untextured = materials[si.material];
+                let material = textured_material(untextured, si.uv, si.lod);
+
+                if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
+                    path.beta *= exp(-material.attenuation_coefficient * si.distance);
+                }
+
+                // Full weight: the cone's level of detail; weighted against light sampling: level 0,
+                // what light sampling sees (the CPU twin explains).
+                if (max_element(untextured.emission) > 0.0 && (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
+                    if (path.depth == 0u || path.prev_delta || si.emitter == INVALID_INDEX) {
+                        l += path.beta * material.emission;
+                    } else {
+                        let light_pdf = triangle_light_pdf(lights[si.emitter], triangles[hit.triangle], path.ray.origin, si.p);
+                        l += path.beta * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(path.prev_pdf, light_pdf);
+                    }
+                }
+
+                if (path.depth >= frame.max_depth || path.depth >= MAX_BOUNCES_GUARD) {
+                    break;
+                }
+                bsdf = gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal);
+                l += next_event(si, bsdf, path.beta);
+
+                if (SPLITTING && frame.splits > 1u && !split && has_non_delta(bsdf)) {
+                    // Split here: the prefix's radiance is kept, and continuation 0 goes on.
+                    split = true;
+                    split_j = 0u;
+                    split_sum = vec3<f32>(0.0);
+                    split_vertex = SplitVertex(si, bsdf, path, rng_s, l);
+                    l = vec3<f32>(0.0);
+                    sampler_split(rng_s, 0u, frame.splits);
                 }
             }
 
+            // Twin of `scatter`.
             let u_lobe = rng_next_1d();
             let u_dir = rng_next_2d();
             let bs = gltf_bsdf_sample(bsdf, si.wo, u_lobe, u_dir);
@@ -266,41 +286,93 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (!sides_agree(si, wi_world, bs.wi)) {
                 break;
             }
-            beta *= bs.weight;
-            if (!is_finite_vec3(beta)) {
-                l = poison();
+            path.beta *= bs.weight;
+            if (!is_finite_vec3(path.beta)) {
+                poisoned = true;
                 break;
             }
-            prev_delta = bs.is_delta;
-            prev_pdf = bs.pdf_solid_angle;
-            eta_scale *= bs.eta_scale;
-            depth += 1u;
-            ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
+            path.prev_delta = bs.is_delta;
+            path.prev_pdf = bs.pdf_solid_angle;
+            path.eta_scale *= bs.eta_scale;
+            path.depth += 1u;
+            path.ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
 
             if (!bs.is_delta) {
-                non_delta_depth += 1u;
+                path.non_delta_depth += 1u;
             }
-            if (non_delta_depth >= frame.rr_min_depth || depth >= RR_ANY_BOUNCE_DEPTH) {
-                let q = min(max_element(beta * eta_scale), RR_MAX_SURVIVAL);
+            if (path.non_delta_depth >= frame.rr_min_depth || path.depth >= RR_ANY_BOUNCE_DEPTH) {
+                let q = min(max_element(path.beta * path.eta_scale), RR_MAX_SURVIVAL);
                 if (q <= 0.0 || rng_next_1d() >= q) {
                     break;
                 }
-                beta /= q;
+                path.beta /= q;
             }
             path_ended = false;
             break;
         }
         if (path_ended) {
-            p = film_add_sample(p, l, replicate_of(frame.sample_offset + k));
-            k += 1u;
-            if (k == frame.samples) {
-                break;
+            var sample_ended = true;
+            if (split && !poisoned) {
+                // A continuation ended: the next one starts, or the sample is the prefix's
+                // radiance plus their mean.
+                split_sum += l;
+                split_j += 1u;
+                if (split_j < frame.splits) {
+                    l = vec3<f32>(0.0);
+                    resume_split = true;
+                    sample_ended = false;
+                } else {
+                    l = split_vertex.l_prefix + split_sum / f32(frame.splits);
+                }
             }
-            start_path = true;
+            if (sample_ended) {
+                // A poisoned path poisons its sample, split or not (the CPU twin returns at once).
+                p = film_add_sample(p, select(l, poison(), poisoned), replicate_of(frame.sample_offset + k));
+                k += 1u;
+                if (k == frame.samples) {
+                    break;
+                }
+                start_path = true;
+            }
         }
     }
     film[pixel] = p;
     ray_counts[pixel] += rays_traced;
+}
+
+// Twin of `next_event`: one light sample at `si`, MIS-weighted against the BSDF's
+// sampling, times the throughput `beta`.
+fn next_event(si: SurfaceInteraction, bsdf: GltfBsdf, beta: vec3<f32>) -> vec3<f32> {
+    if (!has_non_delta(bsdf) || frame.light_count == 0u) {
+        return vec3<f32>(0.0);
+    }
+    let u_select = rng_next_2d();
+    let u_light = rng_next_2d();
+    let ls = sample_light(si.p, si.p_error, si.n_geometric, u_select, u_light);
+    if (!ls.valid) {
+        return vec3<f32>(0.0);
+    }
+    let wi = frame_to_local(si.frame, ls.wi);
+    var f = vec3<f32>(0.0);
+    if (sides_agree(si, ls.wi, wi)) {
+        f = gltf_bsdf_eval(bsdf, si.wo, wi);
+    }
+    if (max_element(f) <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    var shadow_seed = 0u;
+    if (FEATURE_ALPHA) {
+        shadow_seed = rng_next_u32();
+    }
+    if (intersect_any(ls.shadow_ray, shadow_seed)) {
+        return vec3<f32>(0.0);
+    }
+    let contribution = beta * f * abs(wi.z) * ls.radiance;
+    if (ls.is_delta) {
+        return contribution / ls.pdf;
+    }
+    let w = power_heuristic(ls.pdf, gltf_bsdf_pdf(bsdf, si.wo, wi));
+    return contribution * w / ls.pdf;
 }
 
 // What the camera ray of sample 0 hits: the first-hit AOV (distance, normal, albedo).

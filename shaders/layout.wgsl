@@ -137,6 +137,7 @@ struct FrameParams {
     cone_width: f32,
     cone_spread: f32,
     sampler_kind: u32,
+    splits: u32,
 }
 
 struct FilmPixel {

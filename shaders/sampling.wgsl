@@ -47,6 +47,25 @@ fn sampler_start(kind: u32, x: u32, y: u32, sample_index: u32, seed: u32) {
     }
 }
 
+// Twin of `PathSampler::split`: the numbers of continuation `j` of `splits` of a split
+// path whose sampler state was `state` (`rng_s` then), from its next dimension on. Sobol:
+// the index within the replicate becomes i·splits + j; independent: a fresh stream seeded
+// from the path's next number.
+const SPLIT_STREAM_SALT: u32 = 0x5b1e7c3du;
+
+fn sampler_split(state: vec4<u32>, j: u32, splits: u32) {
+    rng_s = state;
+    if (path_sampler_kind == SAMPLER_SOBOL) {
+        rng_s.y = reverseBits(reverseBits(state.y) * splits + j);
+        return;
+    }
+    let root = xoshiro_next();
+    rng_s = pcg4d(vec4<u32>(root, j, splits, SPLIT_STREAM_SALT));
+    if (all(rng_s == vec4<u32>(0u))) {
+        rng_s.x = 1u;
+    }
+}
+
 fn rotl(x: u32, k: u32) -> u32 {
     return (x << k) | (x >> (32u - k));
 }

@@ -23,6 +23,10 @@ pub struct RenderSettings {
     pub rr_min_depth: u32,
     /// Where the paths' random numbers come from.
     pub sampler: SamplerKind,
+    /// Continuations per camera sample, split at its first vertex with a non-delta lobe
+    /// (trajectory splitting, `crate::cpu::integrator::radiance`); 1: none. A sample costs
+    /// more and varies less: `spp` counts camera samples.
+    pub splits: u32,
 }
 
 impl Default for RenderSettings {
@@ -35,6 +39,7 @@ impl Default for RenderSettings {
             max_depth: None,
             rr_min_depth: 3,
             sampler: SamplerKind::default(),
+            splits: 1,
         }
     }
 }
@@ -42,6 +47,30 @@ impl Default for RenderSettings {
 /// The most pixels an image may have: 2²⁸ (e.g. 16384²), a film of 8 GiB. Beyond that a
 /// mistyped size would exhaust memory instead of failing clearly.
 pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// The CPU backend's splitting factor unless told otherwise (`RenderSettings::splits`,
+/// `--splits`). Chosen by efficiency, 1 / (relMSE × seconds) at equal time: 4 gained
+/// 1.1–1.2× on the Cornell boxes, 1.03–1.09× on three other bundled scenes, and 8 lost on
+/// one of them (bench/RESULTS.md, "Splitting at the first vertex").
+pub const CPU_DEFAULT_SPLITS: u32 = 4;
+
+/// The GPU backend's splitting factor unless told otherwise.
+pub const GPU_DEFAULT_SPLITS: u32 = 1;
+
+/// The splitting factor a backend renders with by default: [`GPU_DEFAULT_SPLITS`] for the
+/// GPU one (`gpu`), else [`CPU_DEFAULT_SPLITS`].
+pub fn default_splits(gpu: bool) -> u32 {
+    if gpu {
+        GPU_DEFAULT_SPLITS
+    } else {
+        CPU_DEFAULT_SPLITS
+    }
+}
+
+/// The most continuations a camera sample may be split into. More would rarely pay (the
+/// prefix a split saves is one camera ray and its first vertex), and a mistyped count would
+/// make one sample cost as much as a whole render.
+pub const MAX_SPLITS: u32 = 64;
 
 impl RenderSettings {
     /// Checks the settings are renderable, with a message naming the one that is not.
@@ -59,6 +88,12 @@ impl RenderSettings {
         }
         if self.spp == 0 {
             return Err(crate::Error::Settings("--spp must be at least 1".into()));
+        }
+        if !(1..=MAX_SPLITS).contains(&self.splits) {
+            return Err(crate::Error::Settings(format!(
+                "--splits must be between 1 and {MAX_SPLITS}, not {}",
+                self.splits
+            )));
         }
         Ok(())
     }

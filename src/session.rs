@@ -71,6 +71,9 @@ pub struct SessionOptions {
     pub max_depth: Option<u32>,
     /// Where the paths' random numbers come from.
     pub sampler: SamplerKind,
+    /// Continuations per camera sample (`RenderSettings::splits`); `None`: the backend's
+    /// default ([`crate::render::default_splits`]).
+    pub splits: Option<u32>,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
     pub device: Option<String>,
@@ -90,6 +93,7 @@ impl SessionOptions {
             seed: 0,
             max_depth: None,
             sampler: SamplerKind::default(),
+            splits: None,
             backend: BackendChoice::Auto,
             device: None,
         }
@@ -184,13 +188,14 @@ impl Session {
             None => scene.cameras.first().and_then(|c| c.aspect_ratio()),
         };
         let (width, height) = image_size(options.width, options.height, camera_aspect);
-        let settings = RenderSettings {
+        let mut settings = RenderSettings {
             width,
             height,
             spp: options.spp,
             seed: options.seed,
             max_depth: options.max_depth,
             sampler: options.sampler,
+            splits: options.splits.unwrap_or(1),
             ..RenderSettings::default()
         };
         settings.validate()?;
@@ -224,6 +229,8 @@ impl Session {
             },
             (other, _) => other,
         };
+        settings.splits =
+            options.splits.unwrap_or_else(|| crate::render::default_splits(choice == BackendChoice::Gpu));
         let gpu = match choice {
             BackendChoice::Gpu => Some(match gpu {
                 Some(ctx) => ctx,
@@ -406,6 +413,7 @@ impl Session {
             seed: self.settings.seed,
             max_depth: self.settings.max_depth,
             sampler: self.settings.sampler,
+            splits: self.settings.splits,
             render_seconds: self.seconds,
             rejected_samples: rejected,
         })

@@ -12,15 +12,21 @@ use pathlight::sampling::SamplerKind;
 use pathlight::scene::FlatScene;
 use pathlight::RenderSettings;
 
-fn cornell_settings(spp: u32, seed: u32, sampler: SamplerKind) -> RenderSettings {
-    RenderSettings { width: 64, height: 64, spp, seed, sampler, ..RenderSettings::default() }
+fn cornell_settings(spp: u32, seed: u32, sampler: SamplerKind, splits: u32) -> RenderSettings {
+    RenderSettings { width: 64, height: 64, spp, seed, sampler, splits, ..RenderSettings::default() }
 }
 
 /// The convergence rows at 1, 2, 4, … 64 spp of one 64×64 render.
-fn rows(scene: &FlatScene, reference: &LinearImage, seed: u32, sampler: SamplerKind) -> Vec<ConvergenceRow> {
+fn rows(
+    scene: &FlatScene,
+    reference: &LinearImage,
+    seed: u32,
+    sampler: SamplerKind,
+    splits: u32,
+) -> Vec<ConvergenceRow> {
     let stop = std::sync::atomic::AtomicBool::new(false);
     let mut rows = Vec::new();
-    let mut backend = CpuBackend::new(scene, &cornell_settings(64, seed, sampler));
+    let mut backend = CpuBackend::new(scene, &cornell_settings(64, seed, sampler, splits));
     pathlight::render_progressive_with(&mut backend, 64, &stop, |b, done, seconds| {
         if done.is_power_of_two() {
             let image = LinearImage::from_film(&b.film()?);
@@ -35,9 +41,12 @@ fn rows(scene: &FlatScene, reference: &LinearImage, seed: u32, sampler: SamplerK
 #[test]
 fn predicted_error_matches_the_actual_error() {
     let scene = common::flat_scene(&common::scene("cornell-box.gltf"), 64, 64);
-    for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
+    // Split samples (the CPU backend's default) too: their variance is a whole sample's,
+    // prefix and continuations together.
+    for (sampler, splits) in [(SamplerKind::Independent, 1), (SamplerKind::Sobol, 1), (SamplerKind::Sobol, 4)]
+    {
         let reference = LinearImage::from_film(&common::render(
-            &mut CpuBackend::new(&scene, &cornell_settings(1024, 77, sampler)),
+            &mut CpuBackend::new(&scene, &cornell_settings(1024, 77, sampler, 1)),
             1024,
         ));
         let reference_error = predicted_relmse(&reference).unwrap();
@@ -48,10 +57,14 @@ fn predicted_error_matches_the_actual_error() {
         let (mut predicted, mut actual) = (0.0, 0.0);
         let seeds = 8;
         for seed in 1..=seeds {
-            let rows = rows(&scene, &reference, seed, sampler);
+            let rows = rows(&scene, &reference, seed, sampler, splits);
             assert_eq!(rows.iter().map(|r| r.spp).collect::<Vec<_>>(), vec![1, 2, 4, 8, 16, 32, 64]);
-            // Errors fall as spp grows (each doubling roughly halves relMSE).
-            assert!(rows.windows(2).skip(1).all(|w| w[1].relmse < w[0].relmse), "{rows:?}");
+            // Errors fall as spp grows: each doubling roughly halves relMSE. Split samples are
+            // held to each quadrupling instead: their camera jitter is a larger share of a
+            // sample's variance, and on this 64×64 image the lamp's edge pixels then make a
+            // single doubling at 4–16 spp come out worse by chance (measured in 2 of 8 seeds).
+            let step = if splits == 1 { 1 } else { 2 };
+            assert!(rows[1..].windows(step + 1).all(|w| w[step].relmse < w[0].relmse), "{rows:?}");
             let last = rows.last().unwrap();
             // The actual relMSE against a noisy reference is the image's error plus the
             // reference's (independent renders); the prediction of both is their sum.
@@ -59,14 +72,14 @@ fn predicted_error_matches_the_actual_error() {
             actual += last.relmse.unwrap() / seeds as f64;
         }
         eprintln!(
-            "{sampler:?}, 64 spp, mean of {seeds} seeds: predicted {predicted:.5} (reference {reference_error:.5}), actual {actual:.5}"
+            "{sampler:?}, {splits} split(s), 64 spp, mean of {seeds} seeds: predicted {predicted:.5} (reference {reference_error:.5}), actual {actual:.5}"
         );
         // 20% (the bound). Heavy tails make the prediction optimistic: measured 0.85
         // of the actual at 64 spp on this scene with independent samples (0.78 at 16 spp,
         // which is why 64 is tested).
         assert!(
             (predicted - actual).abs() <= 0.2 * actual,
-            "{sampler:?}: predicted {predicted} vs actual {actual}"
+            "{sampler:?}, {splits} split(s): predicted {predicted} vs actual {actual}"
         );
     }
 }

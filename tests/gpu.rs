@@ -128,11 +128,22 @@ fn same_seed_agrees(file: &str) {
 /// [`same_seed_agrees`] on a scene already flattened for 32×32, pixels compared to
 /// `tolerance` relative (1e-3 for the reasons above; see the callers for larger ones).
 fn same_seed_agrees_scene(file: &str, scene: &pathlight::scene::FlatScene, tolerance: f32) {
+    same_seed_agrees_with(file, scene, tolerance, &settings(32, 16, 9));
+}
+
+/// [`same_seed_agrees_scene`] at settings `s` (32×32, 16 spp with other splitting or
+/// sampler).
+fn same_seed_agrees_with(
+    file: &str,
+    scene: &pathlight::scene::FlatScene,
+    tolerance: f32,
+    s: &RenderSettings,
+) {
     let Some(ctx) = common::gpu() else { return };
-    let (size, spp) = (32, 16);
-    let s = settings(size, spp, 9);
-    let a = common::render(&mut CpuBackend::new(scene, &s), spp);
-    let b = common::render(&mut GpuBackend::new(ctx, scene, &s).unwrap(), spp);
+    let (size, spp) = (s.width, s.spp);
+    assert_eq!((size, s.height), (32, 32), "scenes are flattened for 32×32");
+    let a = common::render(&mut CpuBackend::new(scene, s), spp);
+    let b = common::render(&mut GpuBackend::new(ctx, scene, s).unwrap(), spp);
     let mut disagree = Vec::new();
     for (i, (x, y)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         let (x, y) = (Vec3::from(x.mean), Vec3::from(y.mean));
@@ -191,6 +202,22 @@ fn every_bundled_scene_is_compared() {
 fn same_seed_renders_agree_to_rounding() {
     for file in SCENES {
         same_seed_agrees(file);
+    }
+}
+
+/// Split samples: the kernel starts a sample's continuations one after another from the
+/// vertex it saved, the CPU in a loop; both draw each continuation's numbers from the same
+/// split streams (Sobol and independent alike), so the renders agree to rounding as unsplit
+/// ones do. Scenes with a split vertex behind glass, with roulette, and with an environment.
+#[test]
+fn split_renders_agree_to_rounding() {
+    use pathlight::sampling::SamplerKind;
+    for file in ["cornell-box.gltf", "cornell-spheres.gltf", "glass-rough.gltf", "env-objects.gltf"] {
+        let scene = common::flat_scene(&common::scene(file), 32, 32);
+        for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
+            let s = RenderSettings { splits: 3, sampler, ..settings(32, 16, 9) };
+            same_seed_agrees_with(file, &scene, 1e-3, &s);
+        }
     }
 }
 
@@ -303,7 +330,7 @@ fn specialised_and_general_kernels_agree() {
     // differ only by rounding in code the specialised kernel omits.
     let Some(ctx) = common::gpu() else { return };
     let scene = common::flat_scene(&common::scene("cornell-box.gltf"), 24, 24);
-    let general = ctx.kernel(pathlight::scene::SceneFeatures::ALL).unwrap();
+    let general = ctx.kernel(pathlight::scene::SceneFeatures::ALL, true).unwrap();
     let a = common::render(&mut GpuBackend::new(ctx.clone(), &scene, &settings(24, 8, 5)).unwrap(), 8);
     let b = common::render(
         &mut GpuBackend::with_kernel(ctx.clone(), general, &scene, &settings(24, 8, 5)).unwrap(),
@@ -567,7 +594,7 @@ fn register_and_array_traversal_stacks_give_the_same_image() {
     let (size, spp) = (24, 4);
     let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
     let render = |limit: u32| {
-        let kernel = ctx.kernel_with_register_stack_limit(scene.features, limit).unwrap();
+        let kernel = ctx.kernel_with_register_stack_limit(scene.features, false, limit).unwrap();
         let mut backend =
             GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &settings(size, spp, 3)).unwrap();
         let film = common::render(&mut backend, spp);

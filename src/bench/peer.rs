@@ -186,6 +186,7 @@ pub fn reference(
         seed: settings.seed,
         max_depth: None,
         sampler: settings.sampler,
+        splits: settings.splits,
         render_seconds: seconds,
         rejected_samples: 0,
     };
@@ -368,10 +369,12 @@ fn backend_series(
 pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult> {
     let flat = flat_scene(scene, options)?;
     let (reference, reference_note) = reference(scene, &flat, options)?;
+    // Each backend as `pathlight render` runs it, with its default splitting.
     let settings = RenderSettings {
         width: options.width,
         height: options.height,
         spp: 1 << 20,
+        splits: crate::render::CPU_DEFAULT_SPLITS,
         ..RenderSettings::default()
     };
     let dir = options.out.join(&scene.name);
@@ -393,7 +396,8 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
         pathlight.push(backend_series(&mut backend, ", independent sampler", &file, &reference, options)?);
     }
     if let Some(ctx) = &options.gpu {
-        let mut backend = GpuBackend::new(ctx.clone(), &flat, &settings)?;
+        let gpu_settings = RenderSettings { splits: crate::render::GPU_DEFAULT_SPLITS, ..settings.clone() };
+        let mut backend = GpuBackend::new(ctx.clone(), &flat, &gpu_settings)?;
         pathlight.push(backend_series(
             &mut backend,
             "",

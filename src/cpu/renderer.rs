@@ -69,8 +69,11 @@ impl CpuBackend<'_> {
         let camera = &self.camera;
         let s = &self.settings;
         let (width, height, seed) = (s.width, s.height, s.seed);
-        let integrator =
-            IntegratorSettings { max_depth: s.max_depth.unwrap_or(u32::MAX), rr_min_depth: s.rr_min_depth };
+        let integrator = IntegratorSettings {
+            max_depth: s.max_depth.unwrap_or(u32::MAX),
+            rr_min_depth: s.rr_min_depth,
+            splits: s.splits,
+        };
         let cone = crate::scene::camera::camera_ray_cone(camera, height, s.spp);
         let w = width as usize;
         let band = rows.start as usize * w..rows.end.min(height) as usize * w;

@@ -25,6 +25,9 @@ pub struct RenderMetadata {
     /// The sampler: under `sobol` the variance channels over-state the error of the mean
     /// (see `sampling::sobol`), a conservative z-test.
     pub sampler: crate::sampling::SamplerKind,
+    /// Continuations per camera sample (`RenderSettings::splits`): `spp` counts camera
+    /// samples.
+    pub splits: u32,
     pub render_seconds: f64,
     /// Non-finite samples dropped.
     pub rejected_samples: u64,
@@ -65,6 +68,7 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
         )),
     );
     put("pathlight.sampler", AttributeValue::Text(Text::from(meta.sampler.name())));
+    put("pathlight.splits", AttributeValue::Text(Text::from(meta.splits.to_string().as_str())));
     put("pathlight.scene", AttributeValue::Text(Text::from(meta.scene.as_str())));
     let layer = Layer::new(size, attributes, Encoding::FAST_LOSSLESS, channels);
     let image = Image::from_layer(layer);

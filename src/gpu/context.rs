@@ -80,6 +80,9 @@ pub struct Kernel {
     /// Wall time to build the `render` pipeline (override specialisation, SPIR-V generation
     /// and the driver's compile).
     pub build_seconds: f64,
+    /// Can it split samples (`RenderSettings::splits` > 1)? Built without, the kernel has no
+    /// split vertex to keep live across its loop.
+    pub splitting: bool,
 }
 
 /// A device ready to render, with its compiled kernels.
@@ -93,8 +96,8 @@ pub struct GpuContext {
     module: wgpu::ShaderModule,
     /// Errors wgpu reported outside any error scope (kept, then returned by `check`).
     uncaptured: Arc<Mutex<Vec<String>>>,
-    /// By the scene features and the register stack limit they were built for.
-    kernels: Mutex<HashMap<(SceneFeatures, u32), Arc<Kernel>>>,
+    /// By the scene features, splitting and the register stack limit they were built for.
+    kernels: Mutex<HashMap<(SceneFeatures, bool, u32), Arc<Kernel>>>,
 }
 
 /// Deferred children the traversal keeps in registers before it starts over with its array
@@ -213,9 +216,10 @@ impl GpuContext {
         })
     }
 
-    /// The kernels specialised to `features`, built on first use and cached.
-    pub fn kernel(&self, features: SceneFeatures) -> Result<Arc<Kernel>> {
-        self.kernel_with_register_stack_limit(features, REGISTER_STACK_SIZE)
+    /// The kernels specialised to `features`, able to split samples if `splitting`, built on
+    /// first use and cached.
+    pub fn kernel(&self, features: SceneFeatures, splitting: bool) -> Result<Arc<Kernel>> {
+        self.kernel_with_register_stack_limit(features, splitting, REGISTER_STACK_SIZE)
     }
 
     /// [`GpuContext::kernel`] whose traversal falls back from its register stack to the
@@ -224,10 +228,11 @@ impl GpuContext {
     pub fn kernel_with_register_stack_limit(
         &self,
         features: SceneFeatures,
+        splitting: bool,
         limit: u32,
     ) -> Result<Arc<Kernel>> {
         let mut cache = self.kernels.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(k) = cache.get(&(features, limit)) {
+        if let Some(k) = cache.get(&(features, splitting, limit)) {
             return Ok(k.clone());
         }
         let mut constants: Vec<(&str, f64)> = features
@@ -236,6 +241,7 @@ impl GpuContext {
             .map(|(name, on)| (*name, if *on { 1.0 } else { 0.0 }))
             .collect();
         constants.push(("REGISTER_STACK_LIMIT", limit as f64));
+        constants.push(("SPLITTING", if splitting { 1.0 } else { 0.0 }));
         let build = |entry: &str| -> Result<(wgpu::ComputePipeline, f64)> {
             let start = Instant::now();
             let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -257,8 +263,8 @@ impl GpuContext {
         };
         let (render, build_seconds) = build("render")?;
         let (first_hit, _) = build("first_hit")?;
-        let kernel = Arc::new(Kernel { render, first_hit, build_seconds });
-        cache.insert((features, limit), kernel.clone());
+        let kernel = Arc::new(Kernel { render, first_hit, build_seconds, splitting });
+        cache.insert((features, splitting, limit), kernel.clone());
         Ok(kernel)
     }
 

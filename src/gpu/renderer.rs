@@ -54,7 +54,7 @@ pub struct GpuBackend {
 impl GpuBackend {
     /// Uploads `scene` and builds (or fetches from the cache) its specialised kernel.
     pub fn new(ctx: Arc<GpuContext>, scene: &FlatScene, settings: &RenderSettings) -> Result<GpuBackend> {
-        Self::with_kernel(ctx.clone(), ctx.kernel(scene.features)?, scene, settings)
+        Self::with_kernel(ctx.clone(), ctx.kernel(scene.features, settings.splits > 1)?, scene, settings)
     }
 
     /// As [`Self::new`] but with an explicit kernel (e.g. the un-specialised one, to measure
@@ -66,6 +66,12 @@ impl GpuBackend {
         settings: &RenderSettings,
     ) -> Result<GpuBackend> {
         let start = Instant::now();
+        if settings.splits > 1 && !kernel.splitting {
+            return Err(Error::Settings(format!(
+                "--splits {}: this kernel was built without splitting",
+                settings.splits
+            )));
+        }
         let device = &ctx.device;
         let max_groups = ctx.limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
         if settings.width as u64 > max_groups || settings.height as u64 > max_groups {
@@ -236,6 +242,7 @@ impl GpuBackend {
             cone_width: cone.width,
             cone_spread: cone.spread,
             sampler_kind: self.settings.sampler.index(),
+            splits: self.settings.splits,
         }
     }
 

@@ -165,6 +165,7 @@ mod tests {
             ("SHEEN_ALBEDO_SIZE", crate::bsdf::sheen::SHEEN_ALBEDO_SIZE as f64),
             ("SHADOW_EPSILON", crate::geometry::SHADOW_EPSILON as f64),
             ("DIMENSION_STEP", crate::sampling::DIMENSION_STEP as f64),
+            ("SPLIT_STREAM_SALT", crate::sampling::SPLIT_STREAM_SALT as f64),
         ];
         for (name, value) in shared {
             assert_eq!(constant(name), *value, "constant {name}: WGSL vs Rust");

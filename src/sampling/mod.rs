@@ -9,7 +9,7 @@ mod warp;
 
 pub use alias::{build_alias_table, AliasEntry};
 pub use rng::{pcg4d, Rng};
-#[cfg(test)]
-pub(crate) use sobol::DIMENSION_STEP;
 pub use sobol::{hash_u32, replicate_of, PathSampler, SamplerKind};
+#[cfg(test)]
+pub(crate) use sobol::{DIMENSION_STEP, SPLIT_STREAM_SALT};
 pub use warp::*;

@@ -153,6 +153,10 @@ fn sobol_batch(pixel_seed: u32, index_reversed: u32, first: u32) -> [[f32; BATCH
     out
 }
 
+/// Distinguishes the independent sampler's continuation streams ([`PathSampler::split`])
+/// from its sample streams, which are seeded by (x, y, sample index, seed).
+pub(crate) const SPLIT_STREAM_SALT: u32 = 0x5b1e_7c3d;
+
 /// Top 24 bits of a fraction as a float in [0, 1), each value exactly representable.
 fn fraction_to_f32(u: u32) -> f32 {
     (u >> 8) as f32 * (1.0 / 16_777_216.0)
@@ -239,6 +243,32 @@ impl PathSampler {
                 (sample_index >> 1).reverse_bits(),
             )),
             SamplerKind::Independent => PathSampler::Independent(Rng::new(x, y, sample_index, seed)),
+        }
+    }
+
+    /// The numbers of continuation `j` of `splits` when a path is split
+    /// (`cpu::integrator::radiance`), from the next dimension on.
+    ///
+    /// Sobol: the sample's index within its replicate, i, becomes i·splits + j, and the
+    /// dimensions go on from where the path has reached. Each dimension shuffles its index
+    /// on its own, so from there on a pixel's continuations are the points of a sequence
+    /// `splits` times as long: its n samples' n·splits continuations are stratified in
+    /// every dimension as n·splits unsplit samples would be (a (0,m,2)-net for each
+    /// power-of-two prefix when `splits` is a power of two), and padded against the
+    /// dimensions before. Independent: a fresh stream seeded from the path's next number and
+    /// `(j, splits)`.
+    pub fn split(&self, j: u32, splits: u32) -> PathSampler {
+        match self {
+            PathSampler::Sobol(stream) => {
+                let index = stream.index_reversed.reverse_bits().wrapping_mul(splits).wrapping_add(j);
+                let mut split = SobolStream { index_reversed: index.reverse_bits(), ..stream.clone() };
+                split.refill(split.dimension);
+                PathSampler::Sobol(split)
+            }
+            PathSampler::Independent(rng) => {
+                let root = rng.clone().next_u32();
+                PathSampler::Independent(Rng::new(root, j, splits, SPLIT_STREAM_SALT))
+            }
         }
     }
 

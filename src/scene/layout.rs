@@ -340,7 +340,7 @@ pub const PROJECTION_PERSPECTIVE: u32 = 0;
 pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
 
 gpu_struct! {
-    /// What one dispatch computes, 52 bytes.
+    /// What one dispatch computes, 56 bytes.
     pub struct FrameParams {
         pub width: u32,
         pub height: u32,
@@ -365,6 +365,8 @@ gpu_struct! {
         pub cone_spread: f32,
         /// `SamplerKind::index` of the paths' sampler.
         pub sampler_kind: u32,
+        /// Continuations per camera sample (`RenderSettings::splits`; 1: no splitting).
+        pub splits: u32,
     }
 }
 
