@@ -54,18 +54,10 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 /// one of them (bench/RESULTS.md, "Splitting at the first vertex").
 pub const CPU_DEFAULT_SPLITS: u32 = 4;
 
-/// The GPU backend's splitting factor unless told otherwise.
+/// The GPU backend's splitting factor unless told otherwise: level on lavapipe's Cornell
+/// box, and not yet measured on a hardware GPU, where the saved vertex would hold registers
+/// through the kernel's whole loop.
 pub const GPU_DEFAULT_SPLITS: u32 = 1;
-
-/// The splitting factor a backend renders with by default: [`GPU_DEFAULT_SPLITS`] for the
-/// GPU one (`gpu`), else [`CPU_DEFAULT_SPLITS`].
-pub fn default_splits(gpu: bool) -> u32 {
-    if gpu {
-        GPU_DEFAULT_SPLITS
-    } else {
-        CPU_DEFAULT_SPLITS
-    }
-}
 
 /// The most continuations a camera sample may be split into. More would rarely pay (the
 /// prefix a split saves is one camera ray and its first vertex), and a mistyped count would

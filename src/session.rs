@@ -72,7 +72,7 @@ pub struct SessionOptions {
     /// Where the paths' random numbers come from.
     pub sampler: SamplerKind,
     /// Continuations per camera sample (`RenderSettings::splits`); `None`: the backend's
-    /// default ([`crate::render::default_splits`]).
+    /// default ([`crate::render::CPU_DEFAULT_SPLITS`], [`crate::render::GPU_DEFAULT_SPLITS`]).
     pub splits: Option<u32>,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
@@ -229,8 +229,10 @@ impl Session {
             },
             (other, _) => other,
         };
-        settings.splits =
-            options.splits.unwrap_or_else(|| crate::render::default_splits(choice == BackendChoice::Gpu));
+        settings.splits = options.splits.unwrap_or(match choice {
+            BackendChoice::Gpu => crate::render::GPU_DEFAULT_SPLITS,
+            _ => crate::render::CPU_DEFAULT_SPLITS,
+        });
         let gpu = match choice {
             BackendChoice::Gpu => Some(match gpu {
                 Some(ctx) => ctx,

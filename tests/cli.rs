@@ -61,6 +61,8 @@ fn renders_cornell_box_to_exr_and_png() {
     assert_eq!(image.attributes["pathlight.spp"], "8");
     assert_eq!(image.attributes["pathlight.seed"], "5");
     assert!(image.attributes["pathlight.backend"].starts_with("cpu"));
+    // The CPU backend's default splitting, recorded: `spp` counts camera samples.
+    assert_eq!(image.attributes["pathlight.splits"], pathlight::render::CPU_DEFAULT_SPLITS.to_string());
     assert!(image.attributes["pathlight.renderSeconds"].parse::<f64>().unwrap() > 0.0);
 
     let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
@@ -110,6 +112,11 @@ fn bad_input_gets_a_clear_error() {
         out,
     ]);
     assert!(e.contains("100000×100000") && e.contains("at most"), "{e}");
+    for splits in ["0", "65"] {
+        let e =
+            run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "--splits", splits, "-o", out]);
+        assert!(e.contains(&format!("--splits must be between 1 and 64, not {splits}")), "{e}");
+    }
     let e = run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "-o", "image.jpg"]);
     assert!(e.contains("image.jpg") && e.contains(".exr or .png"), "{e}");
     let e = run(&[
