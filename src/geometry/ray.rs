@@ -90,7 +90,10 @@ fn round_away(po: Vec3, offset: Vec3) -> Vec3 {
     round_away_scalar(po, offset)
 }
 
-/// A ray leaving surface point `p` in direction `w`, with no upper bound on `t`.
+/// A ray leaving surface point `p` in direction `w`, with no upper bound on `t`. Inlined:
+/// left to the compiler, the integrator's `scatter` called it out of line, 0.8% more
+/// instructions on the Cornell box.
+#[inline(always)]
 pub fn spawn_ray(p: Vec3, p_error: Vec3, n_geometric: Vec3, w: Vec3) -> Ray {
     Ray { origin: offset_ray_origin(p, p_error, n_geometric, w), direction: w, t_max: f32::MAX }
 }
