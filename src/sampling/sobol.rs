@@ -440,6 +440,41 @@ mod tests {
         }
     }
 
+    /// The continuations of split samples ([`PathSampler::split`]): a replicate's first 2^m
+    /// samples split four ways at dimension 3 give 2^m · 4 points in each later dimension,
+    /// and those are a (0, m + 2, 2)-net, as 2^m · 4 unsplit samples' would be. (Indexed
+    /// i + j instead of i·4 + j, neighbouring samples' continuations overlap, and this fails.)
+    #[test]
+    fn split_continuations_are_a_net_in_each_later_dimension() {
+        let splits = 4u32;
+        for m in [0u32, 2, 5] {
+            let n = 1u32 << m;
+            for replicate in 0..2 {
+                let mut points: Vec<Vec<Vec2>> = Vec::new();
+                for k in 0..n {
+                    let mut s = PathSampler::new(SamplerKind::Sobol, 7, 3, 2 * k + replicate, 42);
+                    (0..3).for_each(|_| s.skip_2d());
+                    for j in 0..splits {
+                        let mut c = s.split(j, splits);
+                        points.push((0..4).map(|_| c.next_2d()).collect());
+                    }
+                }
+                let bits = m + 2;
+                for d in 0..4 {
+                    for j in 0..=bits {
+                        let (nx, ny) = (1u32 << j, 1u32 << (bits - j));
+                        let mut cells = vec![0u32; points.len()];
+                        for p in &points {
+                            let (cx, cy) = ((p[d].x * nx as f32) as u32, (p[d].y * ny as f32) as u32);
+                            cells[(cy * nx + cx) as usize] += 1;
+                        }
+                        assert!(cells.iter().all(|&c| c == 1), "m {m} later dimension {d} cells {nx}×{ny}");
+                    }
+                }
+            }
+        }
+    }
+
     /// The replicates and the dimensions are scrambled independently: the correlation of
     /// their numbers over many pixels is near zero. With n = 65,536 pairs the standard error
     /// of a correlation is 1/√n ≈ 0.004, so 0.02 is 5σ.
