@@ -580,6 +580,9 @@ fn textured_models_gpu_match_cpu() {
         // here, by up to 20%: D's textbook denominator cancelled in f32 and the GPU's fused
         // multiply-add rounded it differently (fixed in `ggx_d`). The ordinary bound holds.
         same_seed_agrees_scene(&name, &scene, 1e-3);
+        // Split too: textures, normal maps, stochastic alpha (a number per traversal from the
+        // continuations' streams), clearcoat, sheen and transmission at the split vertex.
+        same_seed_agrees_with(&name, &scene, 1e-3, &RenderSettings { splits: 3, ..settings(32, 16, 9) });
     }
 }
 
