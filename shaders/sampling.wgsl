@@ -41,7 +41,13 @@ fn sampler_start(kind: u32, x: u32, y: u32, sample_index: u32, seed: u32) {
                           reverseBits(sample_index >> 1u), 0u, 0u);
         return;
     }
-    rng_s = pcg4d(vec4<u32>(x, y, sample_index, seed));
+    xoshiro_seed(vec4<u32>(x, y, sample_index, seed));
+}
+
+// Twin of `Rng::new`: the xoshiro128** state hashed from `key` (never all zero, the one
+// state the generator cannot leave).
+fn xoshiro_seed(key: vec4<u32>) {
+    rng_s = pcg4d(key);
     if (all(rng_s == vec4<u32>(0u))) {
         rng_s.x = 1u;
     }
@@ -59,11 +65,7 @@ fn sampler_split(state: vec4<u32>, j: u32, splits: u32) {
         rng_s.y = reverseBits(reverseBits(state.y) * splits + j);
         return;
     }
-    let root = xoshiro_next();
-    rng_s = pcg4d(vec4<u32>(root, j, splits, SPLIT_STREAM_SALT));
-    if (all(rng_s == vec4<u32>(0u))) {
-        rng_s.x = 1u;
-    }
+    xoshiro_seed(vec4<u32>(xoshiro_next(), j, splits, SPLIT_STREAM_SALT));
 }
 
 fn rotl(x: u32, k: u32) -> u32 {

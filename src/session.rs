@@ -195,6 +195,8 @@ impl Session {
             seed: options.seed,
             max_depth: options.max_depth,
             sampler: options.sampler,
+            // A count asked for is checked here, before any work; without one the chosen
+            // backend's default replaces this below.
             splits: options.splits.unwrap_or(1),
             ..RenderSettings::default()
         };
