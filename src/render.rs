@@ -65,6 +65,12 @@ pub const GPU_DEFAULT_SPLITS: u32 = 1;
 pub const MAX_SPLITS: u32 = 64;
 
 impl RenderSettings {
+    /// Are samples split (`splits` > 1)? A GPU kernel must then be built able to split
+    /// (`crate::gpu::Kernel::splitting`).
+    pub fn splitting(&self) -> bool {
+        self.splits > 1
+    }
+
     /// Checks the settings are renderable, with a message naming the one that is not.
     pub fn validate(&self) -> Result<()> {
         if self.width == 0 || self.height == 0 {

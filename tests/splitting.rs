@@ -10,16 +10,19 @@ use pathlight::film::{compare_images, CompareOptions, LinearImage};
 use pathlight::sampling::SamplerKind;
 use pathlight::RenderSettings;
 
+/// A square render of `size`² at `spp` with `splits` continuations per sample.
+fn settings(size: u32, spp: u32, seed: u32, splits: u32, sampler: SamplerKind) -> RenderSettings {
+    RenderSettings { width: size, height: size, spp, seed, splits, sampler, ..Default::default() }
+}
+
 /// The furnace of albedo 0.9 (tests/furnace.rs explains it): every pixel is exactly 10.
 /// Long paths, so each continuation carries most of the sample's value.
 #[test]
 fn a_split_furnace_keeps_its_exact_value() {
-    let (w, h, spp) = (32, 32, 32);
-    let scene = common::flat_scene(&common::scene("furnace-0.9.gltf"), w, h);
+    let (size, spp) = (32, 32);
+    let scene = common::flat_scene(&common::scene("furnace-0.9.gltf"), size, size);
     for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
-        let settings =
-            RenderSettings { width: w, height: h, spp, seed: 7, splits: 4, sampler, ..Default::default() };
-        let film = common::render(&mut CpuBackend::new(&scene, &settings), spp);
+        let film = common::render(&mut CpuBackend::new(&scene, &settings(size, spp, 7, 4, sampler)), spp);
         assert_eq!(film.total_rejected(), 0);
         for (c, (mean, se)) in common::image_mean_and_standard_error(&film).into_iter().enumerate() {
             eprintln!("split furnace, {sampler:?}, channel {c}: {mean:.4} ± {se:.4} (exact 10)");
@@ -41,16 +44,10 @@ fn split_and_unsplit_renders_agree() {
         let scene = common::flat_scene(&common::scene(file), size, size);
         for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
             let render = |splits, seed| {
-                let settings = RenderSettings {
-                    width: size,
-                    height: size,
+                let film = common::render(
+                    &mut CpuBackend::new(&scene, &settings(size, spp, seed, splits, sampler)),
                     spp,
-                    seed,
-                    splits,
-                    sampler,
-                    ..Default::default()
-                };
-                let film = common::render(&mut CpuBackend::new(&scene, &settings), spp);
+                );
                 assert_eq!(film.total_rejected(), 0, "{file}: non-finite samples");
                 film
             };
@@ -83,15 +80,7 @@ fn a_split_sample_varies_less() {
     let (size, spp) = (32, 64);
     let scene = common::flat_scene(&common::scene("cornell-box.gltf"), size, size);
     let relative_variance = |splits| {
-        let settings = RenderSettings {
-            width: size,
-            height: size,
-            spp,
-            seed: 5,
-            splits,
-            sampler: SamplerKind::Independent,
-            ..Default::default()
-        };
+        let settings = settings(size, spp, 5, splits, SamplerKind::Independent);
         let film = common::render(&mut CpuBackend::new(&scene, &settings), spp);
         let (mean, variance) = (film.mean(), film.variance_of_mean());
         let sum: f64 = mean

@@ -188,7 +188,7 @@ pub fn bench_scene(
     }
     if let Some(ctx) = gpu {
         for (label, features) in [("specialised", flat.features), ("general", SceneFeatures::ALL)] {
-            let kernel = ctx.kernel(features, settings.splits > 1)?;
+            let kernel = ctx.kernel(features, settings.splitting())?;
             let build = kernel.build_seconds;
             let mut b = GpuBackend::with_kernel(ctx.clone(), kernel, flat, settings)?;
             let m = measure(&mut b, spp, pixels)?;

@@ -54,7 +54,7 @@ pub struct GpuBackend {
 impl GpuBackend {
     /// Uploads `scene` and builds (or fetches from the cache) its specialised kernel.
     pub fn new(ctx: Arc<GpuContext>, scene: &FlatScene, settings: &RenderSettings) -> Result<GpuBackend> {
-        Self::with_kernel(ctx.clone(), ctx.kernel(scene.features, settings.splits > 1)?, scene, settings)
+        Self::with_kernel(ctx.clone(), ctx.kernel(scene.features, settings.splitting())?, scene, settings)
     }
 
     /// As [`Self::new`] but with an explicit kernel (e.g. the un-specialised one, to measure
@@ -66,7 +66,7 @@ impl GpuBackend {
         settings: &RenderSettings,
     ) -> Result<GpuBackend> {
         let start = Instant::now();
-        if settings.splits > 1 && !kernel.splitting {
+        if settings.splitting() && !kernel.splitting {
             return Err(Error::Settings(format!(
                 "--splits {}: this kernel was built without splitting",
                 settings.splits
