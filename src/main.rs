@@ -214,10 +214,8 @@ struct SceneArgs {
     /// Where the paths' random numbers come from.
     #[arg(long, value_enum, default_value_t = SamplerChoice::Sobol)]
     sampler: SamplerChoice,
-    /// Continuations per camera sample, split at its first vertex with a non-delta lobe
-    /// (trajectory splitting; 1: none). --spp counts camera samples. Default: the
-    /// backend's, chosen by measured efficiency (4 on the CPU, 1 on the GPU).
-    #[arg(long)]
+    // The help names the defaults from the constants that set them, so the two cannot drift.
+    #[arg(long, help = splits_help())]
     splits: Option<u32>,
     /// Camera index in the file (default: the first camera, or one framing the scene).
     #[arg(long)]
@@ -766,4 +764,15 @@ fn run_view(args: ViewArgs) -> Result<(), Error> {
             ViewTonemap::RelativeError => pathlight::scene::layout::DISPLAY_RELATIVE_ERROR,
         },
     })
+}
+
+/// `--splits`' help, with the backends' defaults read from the constants that set them.
+fn splits_help() -> String {
+    format!(
+        "Continuations per camera sample, split at its first vertex with a non-delta lobe \
+         (trajectory splitting; 1: none). --spp counts camera samples. Default: the backend's, \
+         chosen by measured efficiency ({} on the CPU, {} on the GPU)",
+        pathlight::render::CPU_DEFAULT_SPLITS,
+        pathlight::render::GPU_DEFAULT_SPLITS
+    )
 }
