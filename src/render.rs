@@ -59,6 +59,17 @@ pub const CPU_DEFAULT_SPLITS: u32 = 4;
 /// through the kernel's whole loop.
 pub const GPU_DEFAULT_SPLITS: u32 = 1;
 
+/// The splitting factor a backend renders with unless told otherwise: the one place that
+/// picks between [`CPU_DEFAULT_SPLITS`] and [`GPU_DEFAULT_SPLITS`], for `pathlight render`
+/// and the bench alike.
+pub fn default_splits(gpu: bool) -> u32 {
+    if gpu {
+        GPU_DEFAULT_SPLITS
+    } else {
+        CPU_DEFAULT_SPLITS
+    }
+}
+
 /// The most continuations a camera sample may be split into. More would rarely pay (the
 /// prefix a split saves is one camera ray and its first vertex), and a mistyped count would
 /// make one sample cost as much as a whole render.

@@ -231,10 +231,8 @@ impl Session {
             },
             (other, _) => other,
         };
-        settings.splits = options.splits.unwrap_or(match choice {
-            BackendChoice::Gpu => crate::render::GPU_DEFAULT_SPLITS,
-            _ => crate::render::CPU_DEFAULT_SPLITS,
-        });
+        settings.splits =
+            options.splits.unwrap_or(crate::render::default_splits(matches!(choice, BackendChoice::Gpu)));
         let gpu = match choice {
             BackendChoice::Gpu => Some(match gpu {
                 Some(ctx) => ctx,

@@ -374,7 +374,7 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
         width: options.width,
         height: options.height,
         spp: 1 << 20,
-        splits: crate::render::CPU_DEFAULT_SPLITS,
+        splits: crate::render::default_splits(false),
         ..RenderSettings::default()
     };
     let dir = options.out.join(&scene.name);
@@ -396,7 +396,7 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
         pathlight.push(backend_series(&mut backend, ", independent sampler", &file, &reference, options)?);
     }
     if let Some(ctx) = &options.gpu {
-        let gpu_settings = RenderSettings { splits: crate::render::GPU_DEFAULT_SPLITS, ..settings.clone() };
+        let gpu_settings = RenderSettings { splits: crate::render::default_splits(true), ..settings.clone() };
         let mut backend = GpuBackend::new(ctx.clone(), &flat, &gpu_settings)?;
         pathlight.push(backend_series(
             &mut backend,
