@@ -27,6 +27,10 @@ pub struct RenderSettings {
     /// (trajectory splitting, `crate::cpu::integrator::radiance`); 1: none. A sample costs
     /// more and varies less: `spp` counts camera samples.
     pub splits: u32,
+    /// Let a light tracer take the caustic paths where the scene allows it
+    /// (`crate::cpu::supports_light_tracing`): the CPU backend only; the GPU backend path
+    /// traces every path whatever this says.
+    pub light_tracing: bool,
 }
 
 impl Default for RenderSettings {
@@ -40,6 +44,7 @@ impl Default for RenderSettings {
             rr_min_depth: 3,
             sampler: SamplerKind::default(),
             splits: 1,
+            light_tracing: false,
         }
     }
 }

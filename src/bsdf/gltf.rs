@@ -343,14 +343,19 @@ impl GltfBsdf {
             || (self.p_transmit > 0.0 && !self.transmission_is_delta)
     }
 
+    /// Is this nothing but the diffuse lobe, f = baseColor/π?
+    pub fn is_lambertian(&self) -> bool {
+        self.lambertian
+    }
+
     /// Does [`Self::sample`] read its lobe-choice number? A matte BSDF has one lobe and
     /// ignores it.
     pub fn chooses_a_lobe(&self) -> bool {
         !self.lambertian
     }
 
-    /// Lobe selection probabilities (coat, sheen, reflection, diffuse, transmission), for
-    /// tests.
+    /// Lobe selection probabilities (coat, sheen, reflection, diffuse, transmission): all
+    /// zero for a material that scatters nothing.
     pub fn lobe_probabilities(&self) -> [f32; 5] {
         [self.p_coat, self.p_sheen, self.p_reflect, self.p_diffuse, self.p_transmit]
     }

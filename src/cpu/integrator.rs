@@ -55,11 +55,22 @@ pub struct IntegratorSettings {
     /// Continuations per camera sample from its first vertex with a non-delta lobe (1: no
     /// splitting; [`radiance`]).
     pub splits: u32,
+    /// Leave the caustic paths to the light tracer (`super::light_tracing`): a path whose
+    /// first vertex scattered by a non-delta lobe and which reaches an emissive triangle
+    /// through a delta lobe adds nothing here. Only for scenes the light tracer supports,
+    /// and only with its pass added to every sample. The GPU kernel has no light tracer and
+    /// always keeps these paths.
+    pub caustics_by_light_tracing: bool,
 }
 
 impl Default for IntegratorSettings {
     fn default() -> Self {
-        IntegratorSettings { max_depth: u32::MAX, rr_min_depth: 3, splits: 1 }
+        IntegratorSettings {
+            max_depth: u32::MAX,
+            rr_min_depth: 3,
+            splits: 1,
+            caustics_by_light_tracing: false,
+        }
     }
 }
 
@@ -203,7 +214,7 @@ pub fn surface_interaction(
 /// would be spawned on the far side and carry light through a closed wall (issue 11's sealed
 /// room). Such directions are dropped, as pbrt-v3's `BSDF::f` does by classifying
 /// reflection with the geometric normal (Veach 1997 §5.3 discusses these normals).
-fn sides_agree(si: &SurfaceInteraction, wi_world: Vec3, wi_local: Vec3) -> bool {
+pub(super) fn sides_agree(si: &SurfaceInteraction, wi_world: Vec3, wi_local: Vec3) -> bool {
     let wo_side = si.wo_world.dot(si.n_geometric);
     let reflected_geometrically = wi_world.dot(si.n_geometric) * wo_side > 0.0;
     reflected_geometrically == (wi_local.z > 0.0)
@@ -239,6 +250,7 @@ pub fn radiance(
         prev_pdf: 0.0,
         eta_scale: 1.0,
         non_delta_depth: 0,
+        first_vertex_smooth: false,
     };
     trace(scene, settings, path, cone, rng, rays, settings.splits)
 }
@@ -264,6 +276,9 @@ struct PathState {
     eta_scale: f32,
     /// Bounces that sampled a non-delta lobe: where roulette starts ([`scatter`]).
     non_delta_depth: u32,
+    /// Did the first vertex scatter by a non-delta lobe? (The light tracer's half of path
+    /// space, `IntegratorSettings::caustics_by_light_tracing`, needs it.)
+    first_vertex_smooth: bool,
 }
 
 /// How a path goes on after [`scatter`].
@@ -336,7 +351,13 @@ fn trace(
             && (si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0)
         {
             if path.depth == 0 || path.prev_delta || si.emitter == INVALID_INDEX {
-                l += path.beta * Vec3::from(material.emission);
+                let light_traced = settings.caustics_by_light_tracing
+                    && path.prev_delta
+                    && path.first_vertex_smooth
+                    && si.emitter != INVALID_INDEX;
+                if !light_traced {
+                    l += path.beta * Vec3::from(material.emission);
+                }
             } else {
                 let light = &scene.lights[si.emitter as usize];
                 let tri = &scene.triangles[hit.triangle as usize];
@@ -458,6 +479,9 @@ fn scatter(
     if !path.beta.is_finite() {
         // Checked here, before roulette, so roulette only ever sees a finite throughput.
         return Scatter::Poison;
+    }
+    if path.depth == 0 {
+        path.first_vertex_smooth = !bs.is_delta;
     }
     path.prev_delta = bs.is_delta;
     path.prev_pdf = bs.pdf_solid_angle;

@@ -3,6 +3,7 @@
 use rayon::prelude::*;
 
 use super::integrator::{radiance, IntegratorSettings};
+use super::light_tracing::{supports_light_tracing, trace_caustic_pass};
 use crate::film::{film_add_sample, Film};
 use crate::render::{Backend, RenderSettings};
 use crate::sampling::{replicate_of, PathSampler};
@@ -37,6 +38,13 @@ pub struct CpuBackend<'a> {
     film: Film,
     /// Rays traced per pixel (64-bit: a long render traces more than 2³² per pixel).
     rays: Vec<u64>,
+    /// Rays the light tracer traced (not per pixel: a light path belongs to none).
+    light_rays: u64,
+    /// The light tracer's pass last traced, by sample index: `render_rows` asks for one
+    /// sample index band by band.
+    caustic_pass: Option<(u32, Vec<glam::Vec3>)>,
+    /// [`Self::light_traces_caustics`], decided when the scene or camera is set.
+    light_traced_caustics: bool,
 }
 
 impl<'a> CpuBackend<'a> {
@@ -45,12 +53,39 @@ impl<'a> CpuBackend<'a> {
     }
 
     fn with_scene(scene: SceneRef<'a>, settings: &RenderSettings) -> CpuBackend<'a> {
-        CpuBackend {
+        let mut backend = CpuBackend {
             camera: scene.camera,
             scene,
             settings: settings.clone(),
             film: Film::new(settings.width, settings.height),
             rays: vec![0; settings.width as usize * settings.height as usize],
+            light_rays: 0,
+            caustic_pass: None,
+            light_traced_caustics: false,
+        };
+        backend.decide_caustics();
+        backend
+    }
+
+    /// Decides [`Self::light_traces_caustics`] for the scene and camera now set.
+    fn decide_caustics(&mut self) {
+        self.light_traced_caustics =
+            self.settings.light_tracing && supports_light_tracing(&self.scene, &self.camera);
+    }
+
+    /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
+    /// the scene and camera allow it)?
+    pub fn light_traces_caustics(&self) -> bool {
+        self.light_traced_caustics
+    }
+
+    fn integrator_settings(&self) -> IntegratorSettings {
+        let s = &self.settings;
+        IntegratorSettings {
+            max_depth: s.max_depth.unwrap_or(u32::MAX),
+            rr_min_depth: s.rr_min_depth,
+            splits: s.splits,
+            caustics_by_light_tracing: self.light_traces_caustics(),
         }
     }
 }
@@ -65,15 +100,44 @@ impl CpuBackend<'static> {
 impl CpuBackend<'_> {
     /// Adds samples `samples` to the rows `rows` of the film.
     fn render_band(&mut self, samples: std::ops::Range<u32>, rows: std::ops::Range<u32>) {
+        let integrator = self.integrator_settings();
+        if !integrator.caustics_by_light_tracing {
+            return self.render_band_with(samples, rows, &integrator, None);
+        }
+        // Each sample index takes the light tracer's pass for that index, so samples are
+        // added index by index over the band.
+        for k in samples {
+            if self.caustic_pass.as_ref().map(|(pass, _)| *pass) != Some(k) {
+                let s = &self.settings;
+                let (image, rays) =
+                    trace_caustic_pass(&self.scene, &self.camera, &integrator, s.width, s.height, k, s.seed);
+                self.light_rays += rays;
+                self.caustic_pass = Some((k, image));
+            }
+            let pass = self.caustic_pass.take();
+            self.render_band_with(
+                k..k + 1,
+                rows.clone(),
+                &integrator,
+                pass.as_ref().map(|(_, image)| &image[..]),
+            );
+            self.caustic_pass = pass;
+        }
+    }
+
+    /// [`Self::render_band`] for one integrator, with `caustics` (the light tracer's image
+    /// for the one sample index in `samples`) added to every sample when given.
+    fn render_band_with(
+        &mut self,
+        samples: std::ops::Range<u32>,
+        rows: std::ops::Range<u32>,
+        integrator: &IntegratorSettings,
+        caustics: Option<&[glam::Vec3]>,
+    ) {
         let scene: &FlatScene = &self.scene;
         let camera = &self.camera;
         let s = &self.settings;
         let (width, height, seed) = (s.width, s.height, s.seed);
-        let integrator = IntegratorSettings {
-            max_depth: s.max_depth.unwrap_or(u32::MAX),
-            rr_min_depth: s.rr_min_depth,
-            splits: s.splits,
-        };
         let cone = crate::scene::camera::camera_ray_cone(camera, height, s.spp);
         let w = width as usize;
         let band = rows.start as usize * w..rows.end.min(height) as usize * w;
@@ -84,12 +148,13 @@ impl CpuBackend<'_> {
             .for_each(|(i, (row, rays))| {
                 let y = rows.start as usize + i;
                 for (x, (pixel, rays)) in row.iter_mut().zip(rays).enumerate() {
+                    let light_traced = caustics.map_or(glam::Vec3::ZERO, |image| image[y * w + x]);
                     for k in samples.clone() {
                         let mut sampler = PathSampler::new(s.sampler, x as u32, y as u32, k, seed);
                         let ray =
                             generate_camera_ray(camera, width, height, x as u32, y as u32, sampler.next_2d());
-                        let l = radiance(scene, &integrator, ray, cone, &mut sampler, rays);
-                        film_add_sample(pixel, l, replicate_of(k));
+                        let l = radiance(scene, integrator, ray, cone, &mut sampler, rays);
+                        film_add_sample(pixel, l + light_traced, replicate_of(k));
                     }
                 }
             });
@@ -98,7 +163,8 @@ impl CpuBackend<'_> {
 
 impl Backend for CpuBackend<'_> {
     fn name(&self) -> String {
-        format!("cpu ({} threads)", rayon::current_num_threads())
+        let caustics = if self.light_traced_caustics { ", caustics light-traced" } else { "" };
+        format!("cpu ({} threads{caustics})", rayon::current_num_threads())
     }
 
     fn render(&mut self, sample_offset: u32, samples: u32) -> crate::Result<()> {
@@ -114,11 +180,14 @@ impl Backend for CpuBackend<'_> {
     fn reset(&mut self) -> crate::Result<()> {
         self.film = Film::new(self.settings.width, self.settings.height);
         self.rays.iter_mut().for_each(|r| *r = 0);
+        self.light_rays = 0;
         Ok(())
     }
 
     fn set_camera(&mut self, camera: &Camera) -> crate::Result<()> {
         self.camera = *camera;
+        self.caustic_pass = None;
+        self.decide_caustics();
         Ok(())
     }
 
@@ -127,6 +196,6 @@ impl Backend for CpuBackend<'_> {
     }
 
     fn rays_traced(&mut self) -> crate::Result<u64> {
-        Ok(self.rays.iter().sum())
+        Ok(self.rays.iter().sum::<u64>() + self.light_rays)
     }
 }
