@@ -217,6 +217,11 @@ struct SceneArgs {
     // The help names the defaults from the constants that set them, so the two cannot drift.
     #[arg(long, help = splits_help())]
     splits: Option<u32>,
+    /// Path trace the caustics too. By default the CPU backend leaves them (paths from a
+    /// diffuse first hit that reach a light through glass or a mirror) to a light tracer
+    /// where the scene allows it; the GPU backend always path traces them.
+    #[arg(long)]
+    no_light_tracing: bool,
     /// Camera index in the file (default: the first camera, or one framing the scene).
     #[arg(long)]
     camera: Option<usize>,
@@ -728,6 +733,7 @@ fn session_options(args: &SceneArgs, spp: u32) -> SessionOptions {
         seed: args.seed,
         max_depth: args.max_depth,
         splits: args.splits,
+        light_tracing: !args.no_light_tracing,
         sampler: match args.sampler {
             SamplerChoice::Sobol => pathlight::sampling::SamplerKind::Sobol,
             SamplerChoice::Independent => pathlight::sampling::SamplerKind::Independent,

@@ -74,6 +74,9 @@ pub struct SessionOptions {
     /// Continuations per camera sample (`RenderSettings::splits`); `None`: the backend's
     /// default ([`crate::render::CPU_DEFAULT_SPLITS`], [`crate::render::GPU_DEFAULT_SPLITS`]).
     pub splits: Option<u32>,
+    /// Let a light tracer take the caustic paths where the scene allows it
+    /// (`RenderSettings::light_tracing`; the CPU backend only).
+    pub light_tracing: bool,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
     pub device: Option<String>,
@@ -94,6 +97,7 @@ impl SessionOptions {
             max_depth: None,
             sampler: SamplerKind::default(),
             splits: None,
+            light_tracing: true,
             backend: BackendChoice::Auto,
             device: None,
         }
@@ -233,6 +237,7 @@ impl Session {
         };
         settings.splits =
             options.splits.unwrap_or(crate::render::default_splits(matches!(choice, BackendChoice::Gpu)));
+        settings.light_tracing = options.light_tracing && !matches!(choice, BackendChoice::Gpu);
         let gpu = match choice {
             BackendChoice::Gpu => Some(match gpu {
                 Some(ctx) => ctx,

@@ -375,6 +375,7 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
         height: options.height,
         spp: 1 << 20,
         splits: crate::render::default_splits(false),
+        light_tracing: true,
         ..RenderSettings::default()
     };
     let dir = options.out.join(&scene.name);
