@@ -730,6 +730,51 @@ fn coplanar(path: &Path, which: &str) {
     g.write(path, &format!("Coplanar overlapping quads of two materials ({which})"));
 }
 
+/// A caustic with a known answer. A lamp at height 0.5 emits only downwards, onto a perfect
+/// mirror (F₀ = 1, so F = 1 at every angle) at height 0; a diffuse ceiling at height 1
+/// receives its light only through the mirror; a camera between lamp and ceiling looks up
+/// at the ceiling. Every two-bounce path is ceiling → mirror → lamp (the lamp's back is
+/// black and emits nothing). With `virtual_lamp` the mirror is gone and the lamp's mirror
+/// image (height −0.5, emitting upwards) lights the ceiling directly, the real lamp staying
+/// as a black occluder: the one-bounce image of that scene equals the two-bounce image of
+/// the first.
+fn caustic_mirror(path: &Path, virtual_lamp: bool) {
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white ceiling", [0.8, 0.8, 0.8]));
+    let mut ceiling = Mesh::default();
+    ceiling.quad([[-2.0, 1.0, -2.0], [2.0, 1.0, -2.0], [2.0, 1.0, 2.0], [-2.0, 1.0, 2.0]], [0.0, 0.0, 0.0]);
+    g.mesh("ceiling", &ceiling, white);
+    let lamp_at = |y: f64| [[-0.15, y, -0.15], [0.15, y, -0.15], [0.15, y, 0.15], [-0.15, y, 0.15]];
+    let black = g.material(lambert("black", [0.0, 0.0, 0.0]));
+    let lamp_material = g.material(emitter("lamp", [20.0, 16.0, 12.0], 0.0));
+    let mut lamp = Mesh::default();
+    if virtual_lamp {
+        let mut occluder = Mesh::default();
+        occluder.quad(lamp_at(0.5), [0.0, 0.0, 0.0]);
+        g.mesh("the real lamp, dark", &occluder, black);
+        lamp.quad(lamp_at(-0.5), [0.0, 1.0, 0.0]);
+        g.mesh("the lamp's mirror image", &lamp, lamp_material);
+    } else {
+        lamp.quad(lamp_at(0.5), [0.0, -1.0, 0.0]);
+        g.mesh("lamp", &lamp, lamp_material);
+        let mirror = g.material(metal("perfect mirror", [1.0, 1.0, 1.0], 0.0));
+        let mut floor = Mesh::default();
+        floor.quad([[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]], [0.0, 1.0, 0.0]);
+        g.mesh("mirror", &floor, mirror);
+    }
+    // Looking up (+y): a quarter turn about x takes the camera's −z to +y.
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    g.perspective_camera("up", 80f64.to_radians(), [0.1, 0.6, 0.05], [h, 0.0, 0.0, h]);
+    g.write(
+        path,
+        if virtual_lamp {
+            "A ceiling lit directly by a lamp below a dark occluder: the one-bounce twin of caustic-mirror.gltf"
+        } else {
+            "A ceiling lit only through a perfect mirror (a caustic): at two bounces it equals caustic-mirror-virtual.gltf at one"
+        },
+    );
+}
+
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     std::fs::create_dir_all(dir.join("hard")).unwrap();
@@ -749,6 +794,8 @@ fn main() {
         glossy_furnace(&dir.join(format!("hard/glossy-furnace-{r}.gltf")), r.parse().unwrap());
     }
     index_matched_glass(&dir.join("hard/glass-index-1.gltf"));
+    caustic_mirror(&dir.join("hard/caustic-mirror.gltf"), false);
+    caustic_mirror(&dir.join("hard/caustic-mirror-virtual.gltf"), true);
     let mut g = Gltf::default();
     cornell_with_light(&mut g, true, 0.01);
     g.write(

@@ -1,0 +1,119 @@
+//! Caustics by light tracing (`src/cpu/light_tracing.rs`): the light tracer and the path
+//! tracer split path space between them, so with it the CPU backend must render the same
+//! image as without it, and as a scene whose answer is known.
+
+mod common;
+
+use pathlight::cpu::CpuBackend;
+use pathlight::film::{compare_images, CompareOptions, Film, LinearImage};
+use pathlight::scene::FlatScene;
+use pathlight::{Backend, RenderSettings};
+
+fn settings(size: u32, spp: u32, seed: u32, max_depth: Option<u32>, light_tracing: bool) -> RenderSettings {
+    RenderSettings {
+        width: size,
+        height: size,
+        spp,
+        seed,
+        max_depth,
+        light_tracing,
+        ..RenderSettings::default()
+    }
+}
+
+/// Renders `scene` on the CPU backend, checking that it light traces the caustics exactly
+/// when `expect_light_tracing` says.
+fn render(scene: &FlatScene, settings: &RenderSettings, expect_light_tracing: bool) -> Film {
+    let mut backend = CpuBackend::new(scene, settings);
+    assert_eq!(backend.light_traces_caustics(), expect_light_tracing, "{}", backend.name());
+    common::render(&mut backend, settings.spp)
+}
+
+/// The multi-scale z-test `pathlight compare` runs (false-alarm rate 1%), and the image
+/// means within 4 standard errors (a false alarm once in 16,000 runs per channel).
+fn assert_same(test: &Film, reference: &Film, what: &str) {
+    let report = compare_images(
+        &LinearImage::from_film(test),
+        &LinearImage::from_film(reference),
+        &CompareOptions::default(),
+    )
+    .unwrap();
+    assert!(report.same(), "{what}: {}", report.failures.join("; "));
+    let (a, b) =
+        (common::image_mean_and_standard_error(test), common::image_mean_and_standard_error(reference));
+    for c in 0..3 {
+        let ((ma, sa), (mb, sb)) = (a[c], b[c]);
+        let z = (ma - mb) / (sa * sa + sb * sb).sqrt();
+        assert!(
+            z.abs() < 4.0,
+            "{what}: channel {c} image means {ma} ± {sa} and {mb} ± {sb} differ by {z:.1}σ"
+        );
+    }
+    assert_eq!(test.total_rejected(), 0, "{what}: non-finite samples");
+}
+
+#[test]
+fn a_ceiling_lit_through_a_mirror_equals_it_lit_by_the_lamps_mirror_image() {
+    // Two bounces (ceiling, mirror) of `caustic-mirror.gltf` are one bounce of its twin with
+    // the mirror image of the lamp instead of the mirror: an exact answer for the light
+    // tracer's emission sampling, its camera connection (pixel area, cos³θ) and the
+    // partition, since with it every such path is light traced and none path traced.
+    let size = 48;
+    let hard = common::root().join("scenes/hard");
+    let mirrored = common::flat_scene(&hard.join("caustic-mirror.gltf"), size, size);
+    let direct = common::flat_scene(&hard.join("caustic-mirror-virtual.gltf"), size, size);
+    // The twin has no delta material: nothing for the light tracer, so it does not run.
+    let expected = render(&direct, &settings(size, 256, 1, Some(1), true), false);
+    let light_traced = render(&mirrored, &settings(size, 64, 2, Some(2), true), true);
+    assert_same(&light_traced, &expected, "light traced");
+    // The path tracer alone finds these paths only when a ceiling sample's mirror direction
+    // hits the lamp (about 1% of them): rare and bright, so it needs 16× the samples for each
+    // pixel's variance estimate to have seen enough of them.
+    let path_traced = render(&mirrored, &settings(size, 1024, 3, Some(2), false), false);
+    assert_same(&path_traced, &expected, "path traced");
+}
+
+#[test]
+fn glass_and_mirror_spheres_render_the_same_with_and_without_light_tracing() {
+    // The glass scene's caustics pass through a refracting sphere with shading normals: the
+    // light tracer's 1/η² and shading-normal factors. The path tracer's caustic samples are
+    // rare and bright (heavy-tailed), so it gets 8× the samples: at 512 spp each of the
+    // 32² pixels has seen enough of them for its variance estimate to hold.
+    let size = 32;
+    let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
+    let light_traced = render(&scene, &settings(size, 64, 4, None, true), true);
+    let path_traced = render(&scene, &settings(size, 512, 5, None, false), false);
+    assert_same(&light_traced, &path_traced, "cornell-spheres");
+}
+
+#[test]
+fn scenes_the_light_tracer_cannot_take_are_path_traced() {
+    // No delta material (nothing to light trace), rough metal and plastic (glTF layers whose
+    // adjoint is not the BSDF swapped), and the option off.
+    for (name, light_tracing) in
+        [("cornell-box.gltf", true), ("glossy-metal.gltf", true), ("cornell-spheres.gltf", false)]
+    {
+        let scene = common::flat_scene(&common::scene(name), 8, 8);
+        let backend = CpuBackend::new(&scene, &settings(8, 1, 0, None, light_tracing));
+        assert!(!backend.light_traces_caustics(), "{name}: {}", backend.name());
+    }
+}
+
+#[test]
+fn row_bands_give_the_same_film_as_whole_passes() {
+    // The viewer renders one sample index band by band: each band must take the same light
+    // tracer pass as a whole-image render does.
+    let size = 24;
+    let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
+    let s = settings(size, 4, 7, None, true);
+    let mut whole = CpuBackend::new(&scene, &s);
+    whole.render(0, 4).unwrap();
+    let mut banded = CpuBackend::new(&scene, &s);
+    for k in 0..4 {
+        for rows in [0..10, 10..17, 17..24] {
+            banded.render_rows(k, rows).unwrap();
+        }
+    }
+    assert!(whole.film().unwrap() == banded.film().unwrap(), "banded film differs");
+    assert_eq!(whole.rays_traced().unwrap(), banded.rays_traced().unwrap());
+}
