@@ -235,9 +235,9 @@ impl Session {
             },
             (other, _) => other,
         };
-        settings.splits =
-            options.splits.unwrap_or(crate::render::default_splits(matches!(choice, BackendChoice::Gpu)));
-        settings.light_tracing = options.light_tracing && !matches!(choice, BackendChoice::Gpu);
+        let on_gpu = matches!(choice, BackendChoice::Gpu);
+        settings.splits = options.splits.unwrap_or(crate::render::default_splits(on_gpu));
+        settings.light_tracing = options.light_tracing && !on_gpu;
         let gpu = match choice {
             BackendChoice::Gpu => Some(match gpu {
                 Some(ctx) => ctx,

@@ -45,9 +45,9 @@ use rayon::prelude::*;
 use super::integrator::{sides_agree, surface_interaction, IntegratorSettings, MAX_BOUNCES_GUARD};
 use crate::bsdf::GltfBsdf;
 use crate::bvh::ClosestHit;
-use crate::geometry::{gamma, spawn_ray, spawn_ray_to, Frame, Ray, TriangleHit};
-use crate::light::{choose_light, triangle_normal_area};
-use crate::sampling::{sample_cosine_hemisphere, sample_uniform_triangle, Rng};
+use crate::geometry::{spawn_ray, spawn_ray_to, Frame, Ray, TriangleHit};
+use crate::light::{choose_light, sample_triangle_point, triangle_normal_area};
+use crate::sampling::{sample_cosine_hemisphere, Rng};
 use crate::scene::layout::{
     Camera, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, PROJECTION_PERSPECTIVE,
 };
@@ -215,22 +215,16 @@ fn trace_light_path(
     }
     let tri = &scene.triangles[light.triangle as usize];
     let material = &scene.materials[tri.material as usize];
-    let (p0, p1, p2) = (Vec3::from(tri.p0), Vec3::from(tri.p1), Vec3::from(tri.p2));
     let (n_light, area) = triangle_normal_area(tri);
     if area == 0.0 {
         return;
     }
-    let b = sample_uniform_triangle(u_point);
-    let q = b.x * p0 + b.y * p1 + b.z * p2;
-    let q_error = gamma(6) * ((b.x * p0).abs() + (b.y * p1).abs() + (b.z * p2).abs());
+    let (b, q, q_error) = sample_triangle_point(tri, u_point);
     // Emission leaves the front (the winding's side), or either side, chosen by a coin,
     // for a double-sided material.
     let double_sided = material.flags & MATERIAL_DOUBLE_SIDED != 0;
-    let (n_emit, sides) = if double_sided && u_side < 0.5 {
-        (-n_light, 2.0)
-    } else {
-        (n_light, 1.0 + double_sided as u32 as f32)
-    };
+    let sides = if double_sided { 2.0 } else { 1.0 };
+    let n_emit = if double_sided && u_side < 0.5 { -n_light } else { n_light };
     let le = emitted_radiance(&scene.texture_arrays(), material, light.triangle as usize, b);
     // Point density pmf / area, cosine-weighted direction density cos θ / π (per side):
     // β = Le cos θ / (pdf_point pdf_direction) = Le π area sides / pmf.

@@ -10,5 +10,5 @@ pub use integrator::{
     first_hit, radiance, surface_interaction, IntegratorSettings, SurfaceInteraction, MAX_BOUNCES_GUARD,
     RR_ANY_BOUNCE_DEPTH, RR_MAX_SURVIVAL,
 };
-pub use light_tracing::{supports_light_tracing, trace_caustic_pass};
+pub use light_tracing::supports_light_tracing;
 pub use renderer::CpuBackend;

@@ -77,6 +77,18 @@ pub fn spot_falloff(light: &Light, cos_theta: f32) -> f32 {
     t * t
 }
 
+/// A uniformly distributed point on triangle `t` (density 1 / area): its barycentrics, the
+/// point, and the point's error bound as an interpolated point (pbrt-v4
+/// `Triangle::Sample`). The kernel's `sample_light` computes the same inline.
+#[inline(always)]
+pub fn sample_triangle_point(t: &Triangle, u: Vec2) -> (Vec3, Vec3, Vec3) {
+    let (p0, p1, p2) = (Vec3::from(t.p0), Vec3::from(t.p1), Vec3::from(t.p2));
+    let b = sample_uniform_triangle(u);
+    let q = b.x * p0 + b.y * p1 + b.z * p2;
+    let q_error = gamma(6) * ((b.x * p0).abs() + (b.y * p1).abs() + (b.z * p2).abs());
+    (b, q, q_error)
+}
+
 /// Samples incident light at surface point `p` (error bound `p_error`, geometric normal
 /// `n_geometric`, used only to offset the shadow ray).
 #[inline(always)]
@@ -102,11 +114,7 @@ pub fn sample_light(
         LIGHT_TRIANGLE => {
             let tri = &arrays.triangles[light.triangle as usize];
             let material = &arrays.materials[tri.material as usize];
-            let (p0, p1, p2) = (Vec3::from(tri.p0), Vec3::from(tri.p1), Vec3::from(tri.p2));
-            let b = sample_uniform_triangle(u_point);
-            let q = b.x * p0 + b.y * p1 + b.z * p2;
-            // Error bound of an interpolated point (pbrt-v4 `Triangle::Sample`).
-            let q_error = gamma(6) * ((b.x * p0).abs() + (b.y * p1).abs() + (b.z * p2).abs());
+            let (b, q, q_error) = sample_triangle_point(tri, u_point);
             let (n_light, area) = triangle_normal_area(tri);
             let to_light = q - p;
             let dist2 = to_light.length_squared();
