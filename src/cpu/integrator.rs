@@ -277,7 +277,8 @@ struct PathState {
     /// Bounces that sampled a non-delta lobe: where roulette starts ([`scatter`]).
     non_delta_depth: u32,
     /// Did the first vertex scatter by a non-delta lobe? (The light tracer's half of path
-    /// space, `IntegratorSettings::caustics_by_light_tracing`, needs it.)
+    /// space, `IntegratorSettings::caustics_by_light_tracing`, needs it; the WGSL twin has
+    /// no such field because the kernel has no light tracer.)
     first_vertex_smooth: bool,
 }
 

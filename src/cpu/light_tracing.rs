@@ -48,6 +48,7 @@ use crate::bvh::ClosestHit;
 use crate::geometry::{spawn_ray, spawn_ray_to, Frame, Ray, TriangleHit};
 use crate::light::{choose_light, sample_triangle_point, triangle_normal_area};
 use crate::sampling::{sample_cosine_hemisphere, Rng};
+use crate::scene::camera::PinholeProjection;
 use crate::scene::layout::{
     Camera, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, PROJECTION_PERSPECTIVE,
 };
@@ -81,14 +82,8 @@ pub fn supports_light_tracing(scene: &FlatScene, camera: &Camera) -> bool {
     {
         return false;
     }
-    // The materials some triangle uses (the loader keeps a default material that may be
-    // used by none).
-    let mut used = vec![false; scene.materials.len()];
-    for t in &scene.triangles {
-        used[t.material as usize] = true;
-    }
     let mut any_delta = false;
-    for (m, _) in scene.materials.iter().zip(used).filter(|(_, used)| *used) {
+    for (m, _) in scene.materials.iter().zip(&scene.used_materials).filter(|(_, used)| **used) {
         // Seen from either side: a refracting solid's BSDF depends on the side.
         let sides = [true, false].map(|front| GltfBsdf::new(m, Vec3::Z, front, Vec3::Z));
         // Lambertian, or black (no lobe at all: it scatters nothing either way).
@@ -101,57 +96,6 @@ pub fn supports_light_tracing(scene: &FlatScene, camera: &Camera) -> bool {
         any_delta = true;
     }
     any_delta
-}
-
-/// The pinhole camera as a light path's last connection needs it.
-struct CameraProjection {
-    position: Vec3,
-    right: Vec3,
-    up: Vec3,
-    forward: Vec3,
-    half_width: f32,
-    half_height: f32,
-    width: u32,
-    height: u32,
-    /// Area of one pixel on the image plane at distance 1.
-    pixel_area: f32,
-}
-
-impl CameraProjection {
-    fn new(camera: &Camera, width: u32, height: u32) -> CameraProjection {
-        CameraProjection {
-            position: Vec3::from(camera.position),
-            right: Vec3::from(camera.right),
-            up: Vec3::from(camera.up),
-            forward: Vec3::from(camera.forward),
-            half_width: camera.half_width,
-            half_height: camera.half_height,
-            width,
-            height,
-            pixel_area: (2.0 * camera.half_width / width as f32) * (2.0 * camera.half_height / height as f32),
-        }
-    }
-
-    /// The pixel (row-major index) whose box `p` projects into, and the cosine between the
-    /// view axis and the direction to `p`; the inverse of `generate_camera_ray`.
-    fn project(&self, p: Vec3) -> Option<(usize, f32, Vec3, f32)> {
-        let v = p - self.position;
-        let z = v.dot(self.forward);
-        if z <= 0.0 {
-            return None;
-        }
-        let ndc_x = v.dot(self.right) / (z * self.half_width);
-        let ndc_y = v.dot(self.up) / (z * self.half_height);
-        let x = (ndc_x + 1.0) * 0.5 * self.width as f32;
-        let y = (1.0 - ndc_y) * 0.5 * self.height as f32;
-        if !(x >= 0.0 && y >= 0.0 && x < self.width as f32 && y < self.height as f32) {
-            return None;
-        }
-        let pixel = y as usize * self.width as usize + x as usize;
-        let distance2 = v.length_squared();
-        let distance = distance2.sqrt();
-        Some((pixel, z / distance, v / distance, distance2))
-    }
 }
 
 /// The light-traced half of every pixel for sample index `pass`: one light path per pixel,
@@ -167,7 +111,7 @@ pub fn trace_caustic_pass(
     pass: u32,
     seed: u32,
 ) -> (Vec<Vec3>, u64) {
-    let projection = CameraProjection::new(camera, width, height);
+    let projection = PinholeProjection::new(camera, width, height);
     let paths = width as usize * height as usize;
     let tasks: Vec<(Vec<(usize, Vec3)>, u64)> = (0..paths.div_ceil(PATHS_PER_TASK))
         .into_par_iter()
@@ -197,7 +141,7 @@ pub fn trace_caustic_pass(
 /// division by the number of paths.
 fn trace_light_path(
     scene: &FlatScene,
-    camera: &CameraProjection,
+    camera: &PinholeProjection,
     settings: &IntegratorSettings,
     rng: &mut Rng,
     splats: &mut Vec<(usize, Vec3)>,
@@ -300,7 +244,7 @@ fn trace_light_path(
 /// distance; pbrt-v3 `PerspectiveCamera::We`).
 fn connect_to_camera(
     scene: &FlatScene,
-    camera: &CameraProjection,
+    camera: &PinholeProjection,
     si: &super::SurfaceInteraction,
     hit: &ClosestHit,
     beta: Vec3,

@@ -148,3 +148,56 @@ pub fn generate_camera_ray(
     };
     crate::geometry::Ray { origin, direction, t_max: f32::MAX }
 }
+
+/// A pinhole camera run backwards: which pixel a point is seen in, for a light path's
+/// connection to the camera (`crate::cpu` light tracing). The inverse of
+/// [`generate_camera_ray`] for perspective cameras.
+pub struct PinholeProjection {
+    pub position: glam::Vec3,
+    right: glam::Vec3,
+    up: glam::Vec3,
+    forward: glam::Vec3,
+    half_width: f32,
+    half_height: f32,
+    width: u32,
+    height: u32,
+    /// Area of one pixel on the image plane at distance 1.
+    pub pixel_area: f32,
+}
+
+impl PinholeProjection {
+    pub fn new(camera: &layout::Camera, width: u32, height: u32) -> PinholeProjection {
+        PinholeProjection {
+            position: glam::Vec3::from(camera.position),
+            right: glam::Vec3::from(camera.right),
+            up: glam::Vec3::from(camera.up),
+            forward: glam::Vec3::from(camera.forward),
+            half_width: camera.half_width,
+            half_height: camera.half_height,
+            width,
+            height,
+            pixel_area: (2.0 * camera.half_width / width as f32) * (2.0 * camera.half_height / height as f32),
+        }
+    }
+
+    /// The pixel (row-major index) whose box `p` projects into, the cosine between the view
+    /// axis and the direction to `p`, that unit direction, and the squared distance.
+    pub fn project(&self, p: glam::Vec3) -> Option<(usize, f32, glam::Vec3, f32)> {
+        let v = p - self.position;
+        let z = v.dot(self.forward);
+        if z <= 0.0 {
+            return None;
+        }
+        let ndc_x = v.dot(self.right) / (z * self.half_width);
+        let ndc_y = v.dot(self.up) / (z * self.half_height);
+        let x = (ndc_x + 1.0) * 0.5 * self.width as f32;
+        let y = (1.0 - ndc_y) * 0.5 * self.height as f32;
+        if !(x >= 0.0 && y >= 0.0 && x < self.width as f32 && y < self.height as f32) {
+            return None;
+        }
+        let pixel = y as usize * self.width as usize + x as usize;
+        let distance2 = v.length_squared();
+        let distance = distance2.sqrt();
+        Some((pixel, z / distance, v / distance, distance2))
+    }
+}

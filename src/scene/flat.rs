@@ -36,6 +36,9 @@ pub struct FlatScene {
     pub triangles: Vec<Triangle>,
     pub normals: Vec<TriangleNormals>,
     pub materials: Vec<layout::Material>,
+    /// Per material: does some triangle use it? (The loader keeps a default material that
+    /// may be used by none; [`SceneFeatures`] and the light tracer look only at used ones.)
+    pub used_materials: Vec<bool>,
     pub lights: Vec<Light>,
     pub camera: layout::Camera,
     /// The camera as placed in the world (its position is this scene's origin).
@@ -273,6 +276,7 @@ impl FlatScene {
             triangles,
             normals,
             materials,
+            used_materials,
             lights,
             camera_desc,
             features,
