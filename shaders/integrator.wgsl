@@ -253,7 +253,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                     if (path.depth == 0u || path.prev_delta || si.emitter == INVALID_INDEX) {
                         l += path.beta * material.emission;
                     } else {
-                        let light_pdf = triangle_light_pdf(lights[si.emitter], triangles[hit.triangle], path.ray.origin, si.p);
+                        let light_pdf = triangle_light_pdf(lights[si.emitter], path.ray.origin, si.p);
                         l += path.beta * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(path.prev_pdf, light_pdf);
                     }
                 }

@@ -22,14 +22,10 @@ fn choose_light(u: vec2<f32>) -> u32 {
     return lights[i].alias_index;
 }
 
-// Unit geometric normal (xyz) and area (w).
-fn triangle_normal_area(t: Triangle) -> vec4<f32> {
-    let c = cross(t.p1 - t.p0, t.p2 - t.p0);
-    let len = length(c);
-    if (len == 0.0) {
-        return vec4<f32>(0.0, 0.0, 1.0, 0.0);
-    }
-    return vec4<f32>(c / len, 0.5 * len);
+// An emissive-triangle light's unit normal (xyz) and area (w), stored when the scene was
+// flattened (CPU twin: triangle_light_normal_area in src/light/mod.rs).
+fn triangle_light_normal_area(light: Light) -> vec4<f32> {
+    return vec4<f32>(light.direction, light.intensity.x);
 }
 
 fn spot_falloff(light: Light, cos_theta: f32) -> f32 {
@@ -52,7 +48,7 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_sele
         let b = sample_uniform_triangle(u_point);
         let q = b.x * tri.p0 + b.y * tri.p1 + b.z * tri.p2;
         let q_error = gamma(6) * (abs(b.x * tri.p0) + abs(b.y * tri.p1) + abs(b.z * tri.p2));
-        let na = triangle_normal_area(tri);
+        let na = triangle_light_normal_area(light);
         let to_light = q - p;
         let dist2 = dot(to_light, to_light);
         if (dist2 == 0.0 || na.w == 0.0) {
@@ -95,8 +91,8 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_sele
     return no_light_sample();
 }
 
-fn triangle_light_pdf(light: Light, tri: Triangle, origin: vec3<f32>, hit_point: vec3<f32>) -> f32 {
-    let na = triangle_normal_area(tri);
+fn triangle_light_pdf(light: Light, origin: vec3<f32>, hit_point: vec3<f32>) -> f32 {
+    let na = triangle_light_normal_area(light);
     let d = hit_point - origin;
     let dist2 = dot(d, d);
     if (dist2 == 0.0 || na.w == 0.0) {

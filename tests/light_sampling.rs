@@ -65,7 +65,7 @@ fn light_pdf_along(scene: &FlatScene, w: Vec3) -> f32 {
         return 0.0;
     }
     let p = w * hit.hit.t;
-    triangle_light_pdf(&scene.lights[tri.emitter as usize], tri, Vec3::ZERO, p)
+    triangle_light_pdf(&scene.lights[tri.emitter as usize], Vec3::ZERO, p)
 }
 
 #[test]

@@ -46,7 +46,7 @@ use super::integrator::{sides_agree, surface_interaction, IntegratorSettings, MA
 use crate::bsdf::GltfBsdf;
 use crate::bvh::ClosestHit;
 use crate::geometry::{spawn_ray, spawn_ray_to, Frame, Ray, TriangleHit};
-use crate::light::{choose_light, sample_triangle_point, triangle_normal_area};
+use crate::light::{choose_light, sample_triangle_point, triangle_light_normal_area};
 use crate::sampling::{sample_cosine_hemisphere, Rng};
 use crate::scene::camera::PinholeProjection;
 use crate::scene::layout::{
@@ -159,7 +159,7 @@ fn trace_light_path(
     }
     let tri = &scene.triangles[light.triangle as usize];
     let material = &scene.materials[tri.material as usize];
-    let (n_light, area) = triangle_normal_area(tri);
+    let (n_light, area) = triangle_light_normal_area(light);
     if area == 0.0 {
         return;
     }

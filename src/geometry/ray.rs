@@ -100,6 +100,7 @@ pub fn spawn_ray(p: Vec3, p_error: Vec3, n_geometric: Vec3, w: Vec3) -> Ray {
 
 /// A shadow ray from surface point `p` to `target`, both offset off their surfaces; it
 /// reaches the target at `t = 1` and stops at `1 − SHADOW_EPSILON` (pbrt-v4 `SpawnRayTo`).
+#[inline(always)]
 pub fn spawn_ray_to(p: Vec3, p_error: Vec3, n_geometric: Vec3, target: Vec3) -> Ray {
     let origin = offset_ray_origin(p, p_error, n_geometric, target - p);
     Ray { origin, direction: target - origin, t_max: 1.0 - SHADOW_EPSILON }

@@ -192,7 +192,7 @@ impl FlatScene {
             if le.max_element() <= 0.0 {
                 continue;
             }
-            let (_, area) = triangle_normal_area(tri);
+            let (normal, area) = triangle_normal_area(tri);
             let sides = if m.flags & MATERIAL_DOUBLE_SIDED != 0 { 2.0 } else { 1.0 };
             // An emissive texture shapes the emission: weight by its mean over the triangle
             // (4×4 stratified points), so black texels draw no light samples. MIS stays
@@ -212,7 +212,13 @@ impl FlatScene {
                 continue;
             }
             tri.emitter = lights.len() as u32;
-            lights.push(Light { kind: LIGHT_TRIANGLE, triangle: i as u32, ..Default::default() });
+            lights.push(Light {
+                kind: LIGHT_TRIANGLE,
+                triangle: i as u32,
+                direction: normal.to_array(),
+                intensity: [area, 0.0, 0.0],
+                ..Default::default()
+            });
             powers.push(std::f64::consts::PI * area as f64 * mean_luminance * sides);
         }
         for pl in &scene.lights {

@@ -267,12 +267,15 @@ gpu_struct! {
         pub position: [f32; 3],
         /// One of the `LIGHT_*` constants.
         pub kind: u32,
-        /// Spot and directional: the direction the light travels in (unit).
+        /// Spot and directional: the direction the light travels in (unit). Emissive
+        /// triangle: the unit normal of its winding's front side ([`crate::light::triangle_normal_area`]),
+        /// kept here because every light sample needs it.
         pub direction: [f32; 3],
         /// Emissive triangle: index into the triangle array.
         pub triangle: u32,
         /// Point and spot: radiant intensity (W/sr per unit colour). Directional: irradiance.
-        /// Emissive triangle: unused (the radiance is the material's emission).
+        /// Emissive triangle: the triangle's area in `intensity[0]` (its radiance is the
+        /// material's emission).
         pub intensity: [f32; 3],
         /// Probability of choosing this light (proportional to its power).
         pub pmf: f32,
