@@ -72,7 +72,7 @@ pub struct SessionOptions {
     /// Where the paths' random numbers come from.
     pub sampler: SamplerKind,
     /// Continuations per camera sample (`RenderSettings::splits`); `None`: the backend's
-    /// default ([`crate::render::CPU_DEFAULT_SPLITS`], [`crate::render::GPU_DEFAULT_SPLITS`]).
+    /// default ([`crate::render::default_splits`]).
     pub splits: Option<u32>,
     /// Let a light tracer take the caustic paths where the scene allows it
     /// (`RenderSettings::light_tracing`; the CPU backend only).

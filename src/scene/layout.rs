@@ -268,8 +268,8 @@ gpu_struct! {
         /// One of the `LIGHT_*` constants.
         pub kind: u32,
         /// Spot and directional: the direction the light travels in (unit). Emissive
-        /// triangle: the unit normal of its winding's front side ([`crate::light::triangle_normal_area`]),
-        /// kept here because every light sample needs it.
+        /// triangle: the unit normal of its winding's front side
+        /// ([`crate::light::triangle_normal_area`]), kept because every light sample needs it.
         pub direction: [f32; 3],
         /// Emissive triangle: index into the triangle array.
         pub triangle: u32,
