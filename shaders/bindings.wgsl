@@ -35,3 +35,8 @@
 // The sheen lobe's directional albedo E(μ, roughness), SHEEN_ALBEDO_SIZE² entries
 // (src/bsdf/sheen.rs computes it); one unused element without sheen.
 @group(0) @binding(18) var<storage, read> sheen_albedo_table: array<f32>;
+// The light tracer's image of the current sample index (shaders/light_tracing.wgsl): per
+// pixel and channel a 64-bit fixed-point sum (CPU twin: `caustic_to_fixed`), as a high and
+// a low word, so that atomic adds in any order give the same bits. One unused pixel where
+// the caustics are path traced.
+@group(0) @binding(19) var<storage, read_write> caustics: array<atomic<u32>>;

@@ -12,3 +12,43 @@ fn generate_camera_ray(width: u32, height: u32, x: u32, y: u32, u: vec2<f32>) ->
     return Ray(camera.position, normalize(camera.forward + right + up), F32_MAX);
 }
 
+
+// Twin of `PinholeProjection::project` in src/scene/camera.rs: the pixel (row-major index)
+// whose box `p` projects into, the cosine between the view axis and the direction to `p`,
+// that unit direction and the squared distance; `valid` false outside the image or behind
+// the camera.
+struct PixelProjection {
+    pixel: u32,
+    cos_theta: f32,
+    direction: vec3<f32>,
+    distance2: f32,
+    valid: bool,
+}
+
+fn project_to_pixel(p: vec3<f32>, width: u32, height: u32) -> PixelProjection {
+    var out = PixelProjection(0u, 0.0, vec3<f32>(0.0), 0.0, false);
+    let v = p - camera.position;
+    let z = dot(v, camera.forward);
+    if (z <= 0.0) {
+        return out;
+    }
+    let ndc_x = dot(v, camera.right) / (z * camera.half_width);
+    let ndc_y = dot(v, camera.up) / (z * camera.half_height);
+    let x = (ndc_x + 1.0) * 0.5 * f32(width);
+    let y = (1.0 - ndc_y) * 0.5 * f32(height);
+    if (!(x >= 0.0 && y >= 0.0 && x < f32(width) && y < f32(height))) {
+        return out;
+    }
+    out.pixel = u32(y) * width + u32(x);
+    out.distance2 = dot(v, v);
+    let distance = sqrt(out.distance2);
+    out.cos_theta = z / distance;
+    out.direction = v / distance;
+    out.valid = true;
+    return out;
+}
+
+// Twin of `PinholeProjection::pixel_area`: one pixel's area on the image plane at distance 1.
+fn pinhole_pixel_area(width: u32, height: u32) -> f32 {
+    return (2.0 * camera.half_width / f32(width)) * (2.0 * camera.half_height / f32(height));
+}

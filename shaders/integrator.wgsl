@@ -144,6 +144,9 @@ struct PathState {
     eta_scale: f32,
     // Bounces that sampled a non-delta lobe: where roulette starts (the CPU twin explains).
     non_delta_depth: u32,
+    // Did the first vertex scatter by a non-delta lobe? (The light tracer's half of path
+    // space, `frame.light_traced_caustics`, needs it.)
+    first_vertex_smooth: bool,
 }
 
 // Where a split sample's continuations start (the CPU twin's `radiance` explains
@@ -201,7 +204,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (start_path) {
             sampler_start(frame.sampler_kind, x, y, frame.sample_offset + k, frame.seed);
             let camera_ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
-            path = PathState(camera_ray, 0.0, vec3<f32>(1.0), 0u, true, 0.0, 1.0, 0u);
+            path = PathState(camera_ray, 0.0, vec3<f32>(1.0), 0u, true, 0.0, 1.0, 0u, false);
             l = vec3<f32>(0.0);
             poisoned = false;
             split = false;
@@ -251,7 +254,13 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                 // what light sampling sees (the CPU twin explains).
                 if (max_element(untextured.emission) > 0.0 && (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
                     if (path.depth == 0u || path.prev_delta || si.emitter == INVALID_INDEX) {
-                        l += path.beta * material.emission;
+                        // A caustic path the light tracer takes is left out here (the CPU
+                        // twin's `trace` explains the partition).
+                        let light_traced = frame.light_traced_caustics != 0u && path.prev_delta
+                            && path.first_vertex_smooth && si.emitter != INVALID_INDEX;
+                        if (!light_traced) {
+                            l += path.beta * material.emission;
+                        }
                     } else {
                         let light_pdf = triangle_light_pdf(lights[si.emitter], path.ray.origin, si.p);
                         l += path.beta * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(path.prev_pdf, light_pdf);
@@ -291,6 +300,9 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                 poisoned = true;
                 break;
             }
+            if (path.depth == 0u) {
+                path.first_vertex_smooth = !bs.is_delta;
+            }
             path.prev_delta = bs.is_delta;
             path.prev_pdf = bs.pdf_solid_angle;
             path.eta_scale *= bs.eta_scale;
@@ -327,7 +339,12 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             if (sample_ended) {
                 // A poisoned path poisons its sample, split or not (the CPU twin returns at once).
-                p = film_add_sample(p, select(l, poison(), poisoned), replicate_of(frame.sample_offset + k));
+                var x = select(l, poison(), poisoned);
+                if (frame.light_traced_caustics != 0u) {
+                    // The light tracer's half of the pixel for this sample index.
+                    x += caustic_radiance(pixel);
+                }
+                p = film_add_sample(p, x, replicate_of(frame.sample_offset + k));
                 k += 1u;
                 if (k == frame.samples) {
                     break;

@@ -138,6 +138,7 @@ struct FrameParams {
     cone_spread: f32,
     sampler_kind: u32,
     splits: u32,
+    light_traced_caustics: u32,
 }
 
 struct FilmPixel {

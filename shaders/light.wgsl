@@ -28,6 +28,21 @@ fn triangle_light_normal_area(light: Light) -> vec4<f32> {
     return vec4<f32>(light.direction, light.intensity.x);
 }
 
+// A uniformly distributed point on a triangle (density 1 / area): barycentrics, point and
+// the point's error bound (CPU twin: sample_triangle_point in src/light/mod.rs).
+struct TrianglePoint {
+    b: vec3<f32>,
+    p: vec3<f32>,
+    p_error: vec3<f32>,
+}
+
+fn sample_triangle_point(tri: Triangle, u: vec2<f32>) -> TrianglePoint {
+    let b = sample_uniform_triangle(u);
+    let q = b.x * tri.p0 + b.y * tri.p1 + b.z * tri.p2;
+    let q_error = gamma(6) * (abs(b.x * tri.p0) + abs(b.y * tri.p1) + abs(b.z * tri.p2));
+    return TrianglePoint(b, q, q_error);
+}
+
 fn spot_falloff(light: Light, cos_theta: f32) -> f32 {
     let t = clamp((cos_theta - light.cos_outer) * light.spot_scale, 0.0, 1.0);
     return t * t;
@@ -45,9 +60,10 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_sele
     if (FEATURE_EMISSIVE_TRIANGLES && light.kind == LIGHT_TRIANGLE) {
         let tri = triangles[light.triangle];
         let material = materials[tri.material];
-        let b = sample_uniform_triangle(u_point);
-        let q = b.x * tri.p0 + b.y * tri.p1 + b.z * tri.p2;
-        let q_error = gamma(6) * (abs(b.x * tri.p0) + abs(b.y * tri.p1) + abs(b.z * tri.p2));
+        let point = sample_triangle_point(tri, u_point);
+        let b = point.b;
+        let q = point.p;
+        let q_error = point.p_error;
         let na = triangle_light_normal_area(light);
         let to_light = q - p;
         let dist2 = dot(to_light, to_light);

@@ -217,9 +217,9 @@ struct SceneArgs {
     // The help names the defaults from the constants that set them, so the two cannot drift.
     #[arg(long, help = splits_help())]
     splits: Option<u32>,
-    /// Path trace the caustics too. By default the CPU backend leaves them (paths from a
+    /// Path trace the caustics too. By default both backends leave them (paths from a
     /// diffuse first hit that reach a light through glass or a mirror) to a light tracer
-    /// where the scene allows it; the GPU backend always path traces them.
+    /// where the scene allows it.
     #[arg(long)]
     no_light_tracing: bool,
     /// Camera index in the file (default: the first camera, or one framing the scene).

@@ -28,8 +28,7 @@ pub struct RenderSettings {
     /// more and varies less: `spp` counts camera samples.
     pub splits: u32,
     /// Let a light tracer take the caustic paths where the scene allows it
-    /// (`crate::cpu::supports_light_tracing`): the CPU backend only; the GPU backend path
-    /// traces every path whatever this says.
+    /// (`crate::cpu::supports_light_tracing`), on either backend.
     pub light_tracing: bool,
 }
 

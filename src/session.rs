@@ -75,7 +75,7 @@ pub struct SessionOptions {
     /// default ([`crate::render::default_splits`]).
     pub splits: Option<u32>,
     /// Let a light tracer take the caustic paths where the scene allows it
-    /// (`RenderSettings::light_tracing`; the CPU backend only).
+    /// (`RenderSettings::light_tracing`).
     pub light_tracing: bool,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
@@ -237,7 +237,7 @@ impl Session {
         };
         let on_gpu = matches!(choice, BackendChoice::Gpu);
         settings.splits = options.splits.unwrap_or(crate::render::default_splits(on_gpu));
-        settings.light_tracing = options.light_tracing && !on_gpu;
+        settings.light_tracing = options.light_tracing;
         let gpu = match choice {
             BackendChoice::Gpu => Some(match gpu {
                 Some(ctx) => ctx,

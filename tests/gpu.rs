@@ -9,7 +9,7 @@ use pathlight::cpu::CpuBackend;
 use pathlight::film::{write_exr, Film, RenderMetadata};
 use pathlight::gpu::GpuBackend;
 use pathlight::stats::{normal_two_sided_threshold, sidak_alpha};
-use pathlight::RenderSettings;
+use pathlight::{Backend, RenderSettings};
 
 /// Where failing comparisons leave their images.
 fn failure_dir(name: &str) -> PathBuf {
@@ -216,6 +216,26 @@ fn split_renders_agree_to_rounding() {
         let scene = common::flat_scene(&common::scene(file), 32, 32);
         for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
             let s = RenderSettings { splits: 3, sampler, ..settings(32, 16, 9) };
+            same_seed_agrees_with(file, &scene, 1e-3, &s);
+        }
+    }
+}
+
+/// Light-traced caustics: the kernel traces the CPU's light paths from the same streams and
+/// sums their splats in the same fixed point, so the renders agree to rounding as path-traced
+/// ones do; a light path that rounding diverges moves a few splats, within the 1% of pixels
+/// the test allows. Both samplers (the light paths always draw independent numbers), a
+/// mirror's caustic and the glass scene's.
+#[test]
+fn light_traced_renders_agree_to_rounding() {
+    use pathlight::sampling::SamplerKind;
+    let Some(ctx) = common::gpu() else { return };
+    for file in ["cornell-spheres.gltf", "hard/caustic-mirror.gltf"] {
+        let scene = common::flat_scene(&common::scene(file), 32, 32);
+        for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
+            let s = RenderSettings { sampler, light_tracing: true, ..settings(32, 16, 9) };
+            let gpu = GpuBackend::new(ctx.clone(), &scene, &s).unwrap();
+            assert!(gpu.light_traces_caustics(), "{file}: {}", gpu.name());
             same_seed_agrees_with(file, &scene, 1e-3, &s);
         }
     }

@@ -1,11 +1,12 @@
-//! Caustics by light tracing (`src/cpu/light_tracing.rs`): the light tracer and the path
-//! tracer split path space between them, so with it the CPU backend must render the same
-//! image as without it, and as a scene whose answer is known.
+//! Caustics by light tracing (`src/cpu/light_tracing.rs`, `shaders/light_tracing.wgsl`): the
+//! light tracer and the path tracer split path space between them, so with it each backend
+//! must render the same image as without it, and as a scene whose answer is known.
 
 mod common;
 
 use pathlight::cpu::CpuBackend;
 use pathlight::film::{compare_images, CompareOptions, Film, LinearImage};
+use pathlight::gpu::GpuBackend;
 use pathlight::scene::FlatScene;
 use pathlight::{Backend, RenderSettings};
 
@@ -116,4 +117,73 @@ fn row_bands_give_the_same_film_as_whole_passes() {
     }
     assert!(whole.film().unwrap() == banded.film().unwrap(), "banded film differs");
     assert_eq!(whole.rays_traced().unwrap(), banded.rays_traced().unwrap());
+}
+
+#[test]
+fn on_the_gpu_a_ceiling_lit_through_a_mirror_equals_it_lit_by_the_lamps_mirror_image() {
+    // The exact answer above for the kernel's light tracer (`trace_caustics`): its splats,
+    // their fixed-point sums, and `render` leaving the same paths out.
+    let Some(ctx) = common::gpu() else { return };
+    let size = 48;
+    let hard = common::root().join("scenes/hard");
+    let mirrored = common::flat_scene(&hard.join("caustic-mirror.gltf"), size, size);
+    let direct = common::flat_scene(&hard.join("caustic-mirror-virtual.gltf"), size, size);
+    let expected = render(&direct, &settings(size, 256, 1, Some(1), true), false);
+    let s = settings(size, 64, 2, Some(2), true);
+    let mut gpu = GpuBackend::new(ctx, &mirrored, &s).unwrap();
+    assert!(gpu.light_traces_caustics(), "{}", gpu.name());
+    let light_traced = common::render(&mut gpu, s.spp);
+    assert_same(&light_traced, &expected, "light traced on the GPU");
+}
+
+#[test]
+fn on_the_gpu_glass_and_mirror_spheres_render_the_same_with_and_without_light_tracing() {
+    // As on the CPU (see that test for the sample counts), the kernel's light tracer against
+    // the CPU backend's path tracer alone.
+    let Some(ctx) = common::gpu() else { return };
+    let size = 32;
+    let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
+    let s = settings(size, 64, 4, None, true);
+    let mut gpu = GpuBackend::new(ctx, &scene, &s).unwrap();
+    assert!(gpu.light_traces_caustics(), "{}", gpu.name());
+    let light_traced = common::render(&mut gpu, s.spp);
+    let path_traced = render(&scene, &settings(size, 512, 5, None, false), false);
+    assert_same(&light_traced, &path_traced, "cornell-spheres on the GPU");
+}
+
+#[test]
+fn on_the_gpu_row_bands_give_the_same_film_as_whole_passes() {
+    // The viewer's way on the kernel: each band of a sample index must see that index's
+    // light-traced image, traced once.
+    let Some(ctx) = common::gpu() else { return };
+    let size = 24;
+    let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
+    let s = settings(size, 4, 7, None, true);
+    let mut whole = GpuBackend::new(ctx.clone(), &scene, &s).unwrap();
+    whole.render(0, 4).unwrap();
+    let mut banded = GpuBackend::new(ctx, &scene, &s).unwrap();
+    for k in 0..4 {
+        for rows in [0..10, 10..17, 17..24] {
+            banded.render_rows(k, rows).unwrap();
+        }
+    }
+    assert!(whole.film().unwrap() == banded.film().unwrap(), "banded film differs");
+    assert_eq!(whole.rays_traced().unwrap(), banded.rays_traced().unwrap());
+}
+
+#[test]
+fn the_gpu_light_traces_exactly_the_scenes_the_cpu_does() {
+    let Some(ctx) = common::gpu() else { return };
+    for (name, light_tracing) in [
+        ("cornell-box.gltf", true),
+        ("glossy-metal.gltf", true),
+        ("cornell-spheres.gltf", false),
+        ("cornell-spheres.gltf", true),
+    ] {
+        let scene = common::flat_scene(&common::scene(name), 8, 8);
+        let s = settings(8, 1, 0, None, light_tracing);
+        let gpu = GpuBackend::new(ctx.clone(), &scene, &s).unwrap();
+        let cpu = CpuBackend::new(&scene, &s);
+        assert_eq!(gpu.light_traces_caustics(), cpu.light_traces_caustics(), "{name}: {}", gpu.name());
+    }
 }

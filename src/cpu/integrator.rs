@@ -58,8 +58,8 @@ pub struct IntegratorSettings {
     /// Leave the caustic paths to the light tracer (`super::light_tracing`): a path whose
     /// first vertex scattered by a non-delta lobe and which reaches an emissive triangle
     /// through a delta lobe adds nothing here. Only for scenes the light tracer supports,
-    /// and only with its pass added to every sample. The GPU kernel has no light tracer and
-    /// always keeps these paths.
+    /// and only with its pass added to every sample (the kernel's twin is
+    /// `frame.light_traced_caustics`).
     pub caustics_by_light_tracing: bool,
 }
 
@@ -287,8 +287,7 @@ struct PathState {
     /// Bounces that sampled a non-delta lobe: where roulette starts ([`scatter`]).
     non_delta_depth: u32,
     /// Did the first vertex scatter by a non-delta lobe? (The light tracer's half of path
-    /// space, `IntegratorSettings::caustics_by_light_tracing`, needs it; the WGSL twin has
-    /// no such field because the kernel has no light tracer.)
+    /// space, `IntegratorSettings::caustics_by_light_tracing`, needs it.)
     first_vertex_smooth: bool,
 }
 

@@ -22,9 +22,12 @@
 //!
 //! Per sample index k, [`trace_caustic_pass`] traces one light path per pixel and returns
 //! the image of their camera connections divided by that count: an unbiased estimate of
-//! the light-traced half of every pixel, independent of the path-traced samples. The CPU
+//! the light-traced half of every pixel, independent of the path-traced samples. Each
 //! backend adds it to sample k of each pixel, so the film's per-pixel statistics still see
-//! one independent estimate per sample (`film_add_sample`).
+//! one independent estimate per sample (`film_add_sample`). The GPU twin is
+//! `shaders/light_tracing.wgsl`: the same paths from the same numbers, its splats summed
+//! by atomic adds in the fixed point of [`caustic_to_fixed`], which both backends use so
+//! that the sum does not depend on the order the splats arrive in.
 //!
 //! Light tracing transports importance, not radiance, so two factors differ from the path
 //! tracer's (Veach 1997 §5.2–5.3; pbrt-v3 `CorrectShadingNormal`, pbrt-v4
@@ -61,19 +64,56 @@ const PATHS_PER_TASK: usize = 1024;
 
 /// Light-path vertices after which roulette may end a light path (the first is always the
 /// delta vertex next to the light, the second the first surface the camera can see).
-const LIGHT_RR_MIN_VERTICES: u32 = 2;
+pub const LIGHT_RR_MIN_VERTICES: u32 = 2;
 
 /// The row of [`Rng::new`] that light paths draw from: no pixel has it (an image has fewer
 /// than 2²⁸ pixels, `crate::render::MAX_PIXELS`), so their streams never meet a pixel's.
-const LIGHT_PATH_STREAM: u32 = u32::MAX;
+pub const LIGHT_PATH_STREAM: u32 = u32::MAX;
+
+/// Fraction bits of the fixed point the splats of a pass are summed in: a resolution of
+/// 2⁻²⁰ ≈ 10⁻⁶, far below what relMSE's 10⁻² floor or a z-test can see, with 44 integer
+/// bits above it.
+pub const CAUSTIC_FRACTION_BITS: u32 = 20;
+
+/// The largest splat, in units of 2⁻²⁰: 2⁴⁴ (1.7·10⁷ in radiance, after the division by the
+/// number of paths). Larger ones are clamped to it so that 2²⁰ of them still sum within 64
+/// bits; no scene that light tracing takes comes near it (one such splat outshines the
+/// whole image by orders of magnitude).
+pub const CAUSTIC_MAX_FIXED: f32 = 17_592_186_044_416.0;
+
+/// One splat (finite, ≥ 0) in fixed point: rounded half to even to a multiple of 2⁻²⁰, as
+/// the kernel's `round` does, so that both backends add the same integers.
+pub fn caustic_to_fixed(v: f32) -> u64 {
+    let x = (v * (1u32 << CAUSTIC_FRACTION_BITS) as f32).round_ties_even().min(CAUSTIC_MAX_FIXED);
+    // x is an integer in [0, 2⁴⁴]: exact as u64.
+    x as u64
+}
+
+/// A sum of splats back in radiance: the high and the low 32 bits converted apart, as the
+/// kernel reads its two words (`caustic_radiance`).
+pub fn caustic_from_fixed(x: u64) -> f32 {
+    let high = (x >> 32) as u32 as f32 * (1u64 << (32 - CAUSTIC_FRACTION_BITS)) as f32;
+    let low = x as u32 as f32 * (1.0 / (1u32 << CAUSTIC_FRACTION_BITS) as f32);
+    high + low
+}
 
 /// Can the light tracer take over the caustic paths of `scene` seen through `camera`?
 /// See the module documentation for why each condition is there. Reads every triangle:
 /// call it once per scene and camera.
 pub fn supports_light_tracing(scene: &FlatScene, camera: &Camera) -> bool {
+    camera_supports_light_tracing(camera) && scene_supports_light_tracing(scene)
+}
+
+/// The camera's half of [`supports_light_tracing`]: a pinhole (the connection's importance
+/// is a pinhole's).
+pub fn camera_supports_light_tracing(camera: &Camera) -> bool {
+    camera.projection == PROJECTION_PERSPECTIVE
+}
+
+/// The scene's half of [`supports_light_tracing`].
+pub fn scene_supports_light_tracing(scene: &FlatScene) -> bool {
     let f = &scene.features;
-    if camera.projection != PROJECTION_PERSPECTIVE
-        || f.textures
+    if f.textures
         || f.alpha
         || f.normal_maps
         || f.clearcoat
@@ -101,7 +141,8 @@ pub fn supports_light_tracing(scene: &FlatScene, camera: &Camera) -> bool {
 /// The light-traced half of every pixel for sample index `pass`: one light path per pixel,
 /// the image of their camera connections divided by the number of paths (row-major, the
 /// film's layout), and the rays they traced. Deterministic: path i draws its numbers from
-/// its own stream, and the connections are summed in path order.
+/// its own stream, and the connections are summed in fixed point, where order does not
+/// matter.
 pub fn trace_caustic_pass(
     scene: &FlatScene,
     camera: &Camera,
@@ -125,15 +166,20 @@ pub fn trace_caustic_pass(
             (splats, rays)
         })
         .collect();
-    let mut image = vec![Vec3::ZERO; paths];
+    let mut sums = vec![[0u64; 3]; paths];
     let mut rays = 0;
     let scale = 1.0 / paths as f32;
     for (splats, task_rays) in tasks {
         rays += task_rays;
         for (pixel, value) in splats {
-            image[pixel] += value * scale;
+            let value = value * scale;
+            for (sum, v) in sums[pixel].iter_mut().zip(value.to_array()) {
+                // At most 2⁴⁴ per splat (`caustic_to_fixed`): 2²⁰ of them cannot wrap.
+                *sum = sum.wrapping_add(caustic_to_fixed(v));
+            }
         }
     }
+    let image = sums.iter().map(|s| Vec3::from(s.map(caustic_from_fixed))).collect();
     (image, rays)
 }
 
@@ -281,4 +327,27 @@ fn connect_to_camera(
     let value = beta * f * (wi.z.abs() * direction.dot(ng).abs())
         / (cos_light_geometric * camera.pixel_area * cos_theta * cos_theta * cos_theta * distance2);
     value.is_finite().then_some((pixel, value))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn caustic_fixed_point_rounds_to_its_resolution_and_clamps() {
+        let resolution = 1.0 / (1u32 << CAUSTIC_FRACTION_BITS) as f64;
+        for v in [0.0f32, 1e-9, 3e-7, 0.5, 1.0, 0.1234567, 17.25, 4096.0 + 1e-3, 1.5e6, 1.6e7] {
+            let back = caustic_from_fixed(caustic_to_fixed(v)) as f64;
+            // Half the fixed point's step from rounding, then the f32 of the result.
+            let bound = 0.5 * resolution + back.abs() * f32::EPSILON as f64;
+            assert!((back - v as f64).abs() <= bound, "{v}: {back}");
+        }
+        // Half-way values round to even multiples of the step, as the kernel's `round`.
+        assert_eq!(caustic_to_fixed(2.5 / (1u32 << CAUSTIC_FRACTION_BITS) as f32), 2);
+        assert_eq!(caustic_to_fixed(3.5 / (1u32 << CAUSTIC_FRACTION_BITS) as f32), 4);
+        assert_eq!(caustic_to_fixed(1e30), CAUSTIC_MAX_FIXED as u64);
+        // Sums carry across the low word as the kernel's two-word adds do.
+        let x = caustic_to_fixed(4095.9) * 3;
+        assert!((caustic_from_fixed(x) - 3.0 * 4095.9).abs() < 1e-3);
+    }
 }

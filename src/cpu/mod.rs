@@ -10,5 +10,9 @@ pub use integrator::{
     first_hit, radiance, surface_interaction, IntegratorSettings, SurfaceInteraction, MAX_BOUNCES_GUARD,
     RR_ANY_BOUNCE_DEPTH, RR_MAX_SURVIVAL,
 };
-pub use light_tracing::supports_light_tracing;
+pub use light_tracing::{
+    camera_supports_light_tracing, caustic_from_fixed, caustic_to_fixed, scene_supports_light_tracing,
+    supports_light_tracing, CAUSTIC_FRACTION_BITS, CAUSTIC_MAX_FIXED, LIGHT_PATH_STREAM,
+    LIGHT_RR_MIN_VERTICES,
+};
 pub use renderer::CpuBackend;

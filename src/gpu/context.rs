@@ -98,6 +98,14 @@ pub struct GpuContext {
     uncaptured: Arc<Mutex<Vec<String>>>,
     /// By the scene features, splitting and the register stack limit they were built for.
     kernels: Mutex<HashMap<(SceneFeatures, bool, u32), Arc<Kernel>>>,
+    /// The light tracer's kernels (`trace_caustics`), by the scene features they were
+    /// built for: built only for scenes whose caustics are light traced.
+    caustic_kernels: Mutex<HashMap<SceneFeatures, Arc<wgpu::ComputePipeline>>>,
+}
+
+/// The scene-feature overrides of shaders/features.wgsl for `features`.
+fn feature_constants(features: SceneFeatures) -> Vec<(&'static str, f64)> {
+    features.pipeline_constants().iter().map(|(name, on)| (*name, if *on { 1.0 } else { 0.0 })).collect()
 }
 
 /// Deferred children the traversal keeps in registers before it starts over with its array
@@ -196,6 +204,7 @@ impl GpuContext {
                 storage(16, true),
                 storage(17, true),
                 storage(18, true),
+                storage(19, false),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -213,6 +222,7 @@ impl GpuContext {
             module,
             uncaptured,
             kernels: Mutex::new(HashMap::new()),
+            caustic_kernels: Mutex::new(HashMap::new()),
         })
     }
 
@@ -235,37 +245,49 @@ impl GpuContext {
         if let Some(k) = cache.get(&(features, splitting, limit)) {
             return Ok(k.clone());
         }
-        let mut constants: Vec<(&str, f64)> = features
-            .pipeline_constants()
-            .iter()
-            .map(|(name, on)| (*name, if *on { 1.0 } else { 0.0 }))
-            .collect();
+        let mut constants = feature_constants(features);
         constants.push(("REGISTER_STACK_LIMIT", limit as f64));
         constants.push(("SPLITTING", if splitting { 1.0 } else { 0.0 }));
-        let build = |entry: &str| -> Result<(wgpu::ComputePipeline, f64)> {
-            let start = Instant::now();
-            let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&self.pipeline_layout),
-                module: &self.module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    zero_initialize_workgroup_memory: false,
-                },
-                cache: None,
-            });
-            if let Some(e) = pollster::block_on(scope.pop()) {
-                return Err(Error::Gpu(format!("building the {entry} kernel failed: {e}")));
-            }
-            Ok((pipeline, start.elapsed().as_secs_f64()))
-        };
-        let (render, build_seconds) = build("render")?;
-        let (first_hit, _) = build("first_hit")?;
+        let (render, build_seconds) = self.build_pipeline("render", &constants)?;
+        let (first_hit, _) = self.build_pipeline("first_hit", &constants)?;
         let kernel = Arc::new(Kernel { render, first_hit, build_seconds, splitting });
         cache.insert((features, splitting, limit), kernel.clone());
         Ok(kernel)
+    }
+
+    /// The light tracer's kernel (`trace_caustics` in shaders/light_tracing.wgsl)
+    /// specialised to `features`, built on first use and cached.
+    pub fn caustics_kernel(&self, features: SceneFeatures) -> Result<Arc<wgpu::ComputePipeline>> {
+        let mut cache = self.caustic_kernels.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(k) = cache.get(&features) {
+            return Ok(k.clone());
+        }
+        let (pipeline, _) = self.build_pipeline("trace_caustics", &feature_constants(features))?;
+        let pipeline = Arc::new(pipeline);
+        cache.insert(features, pipeline.clone());
+        Ok(pipeline)
+    }
+
+    /// Builds entry point `entry` of the kernel module with the override values
+    /// `constants`; returns it and the seconds it took.
+    fn build_pipeline(&self, entry: &str, constants: &[(&str, f64)]) -> Result<(wgpu::ComputePipeline, f64)> {
+        let start = Instant::now();
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&self.pipeline_layout),
+            module: &self.module,
+            entry_point: Some(entry),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("building the {entry} kernel failed: {e}")));
+        }
+        Ok((pipeline, start.elapsed().as_secs_f64()))
     }
 
     /// Returns any error wgpu reported asynchronously since the last check.

@@ -49,6 +49,16 @@ pub struct GpuBackend {
     seconds_per_sample: Option<f64>,
     /// Wall time of uploading the scene.
     pub upload_seconds: f64,
+    /// The light tracer's image of one sample index (`caustics` in shaders/bindings.wgsl;
+    /// one unused pixel unless the scene's caustics may be light traced).
+    caustics: wgpu::Buffer,
+    /// The light tracer's kernel, where the settings ask for light tracing and the scene
+    /// allows it (`crate::cpu::scene_supports_light_tracing`).
+    caustics_kernel: Option<Arc<wgpu::ComputePipeline>>,
+    /// Are the caustic paths light traced: the kernel above, and a camera that allows it.
+    light_traced: bool,
+    /// The sample index whose light-traced image `caustics` holds.
+    caustic_pass: Option<u32>,
 }
 
 impl GpuBackend {
@@ -155,6 +165,15 @@ impl GpuBackend {
         let film = zeroed("film", pixels * std::mem::size_of::<FilmPixel>() as u64)?;
         let first_hits = zeroed("first-hit buffer", pixels * std::mem::size_of::<FirstHit>() as u64)?;
         let ray_counts = zeroed("ray-count buffer", pixels * 4)?;
+        // Light tracing as the CPU backend decides it (`CpuBackend::light_traces_caustics`).
+        let caustics_kernel = if settings.light_tracing && crate::cpu::scene_supports_light_tracing(scene) {
+            Some(ctx.caustics_kernel(scene.features)?)
+        } else {
+            None
+        };
+        // Two words per channel (a 64-bit fixed-point sum) per pixel.
+        let caustic_pixels = if caustics_kernel.is_some() { pixels } else { 1 };
+        let caustics = zeroed("light-traced image", caustic_pixels * 6 * 4)?;
         let camera = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("camera"),
             contents: bytemuck::bytes_of(&scene.camera),
@@ -189,6 +208,7 @@ impl GpuBackend {
             &texcoords,
             &tangents,
             &sheen_albedo,
+            &caustics,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -216,8 +236,40 @@ impl GpuBackend {
             samples_since_fold: 0,
             seconds_per_sample: None,
             upload_seconds: start.elapsed().as_secs_f64(),
+            light_traced: caustics_kernel.is_some()
+                && crate::cpu::camera_supports_light_tracing(&scene.camera),
+            caustics,
+            caustics_kernel,
+            caustic_pass: None,
             ctx,
         })
+    }
+
+    /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
+    /// the scene and camera allow it)? As `CpuBackend::light_traces_caustics`.
+    pub fn light_traces_caustics(&self) -> bool {
+        self.light_traced
+    }
+
+    /// Queues the light tracer's pass for sample index `pass` (the image cleared, then
+    /// light paths over bands of `rows` rows) without waiting: the queue runs it before
+    /// any `render` submitted after it.
+    fn submit_caustic_pass(&mut self, pass: u32, rows: u32) {
+        let Some(pipeline) = self.caustics_kernel.clone() else { return };
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("caustics") });
+        encoder.clear_buffer(&self.caustics, 0, None);
+        self.ctx.queue.submit([encoder.finish()]);
+        let h = self.settings.height;
+        let mut row = 0;
+        while row < h {
+            let count = rows.max(1).min(h - row);
+            self.submit(&pipeline, self.frame_params(pass, 1, row, count));
+            row += count;
+        }
+        self.caustic_pass = Some(pass);
     }
 
     /// Seconds it took to build this backend's kernel.
@@ -243,6 +295,7 @@ impl GpuBackend {
             cone_spread: cone.spread,
             sampler_kind: self.settings.sampler.index(),
             splits: self.settings.splits,
+            light_traced_caustics: self.light_traced as u32,
         }
     }
 
@@ -365,7 +418,8 @@ impl GpuBackend {
 
 impl Backend for GpuBackend {
     fn name(&self) -> String {
-        format!("gpu ({})", self.ctx.name())
+        let caustics = if self.light_traced { ", caustics light-traced" } else { "" };
+        format!("gpu ({}{caustics})", self.ctx.name())
     }
 
     /// Adds samples in submits of about [`TARGET_SUBMIT_SECONDS`]: several samples per pixel
@@ -373,9 +427,12 @@ impl Backend for GpuBackend {
     /// submits are queued so the device never idles while the host waits for a completion
     /// (on lavapipe each wake-up costs tens of milliseconds). Each sample's random stream
     /// depends only on (pixel, sample index, seed), so the image does not depend on how the
-    /// work was split.
+    /// work was split. With light-traced caustics each sample index is one dispatch, after
+    /// the light tracer's pass for that index.
     fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
-        self.fold_rays_before(samples as u64)?;
+        // A light path traces at most as many rays as a sample.
+        let passes = if self.light_traced { 2 } else { 1 };
+        self.fold_rays_before(passes * samples as u64)?;
         let (w, h) = (self.settings.width, self.settings.height);
         // (submission, pixel-samples of work, time submitted)
         let mut in_flight: std::collections::VecDeque<(wgpu::SubmissionIndex, f64, Instant)> =
@@ -401,6 +458,14 @@ impl Backend for GpuBackend {
                         (spp, ((rows / WORKGROUP).max(1) * WORKGROUP).min(h))
                     }
                 }
+            };
+            let spp = if self.light_traced {
+                if self.caustic_pass != Some(sample_offset + done) {
+                    self.submit_caustic_pass(sample_offset + done, rows);
+                }
+                1
+            } else {
+                spp
             };
             let mut row = 0;
             while row < h {
@@ -453,7 +518,10 @@ impl Backend for GpuBackend {
         }
         // One sample per pixel of the band; counted once per full pass for the fold bound.
         if rows.start == 0 {
-            self.fold_rays_before(1)?;
+            self.fold_rays_before(if self.light_traced { 2 } else { 1 })?;
+        }
+        if self.light_traced && self.caustic_pass != Some(sample_index) {
+            self.submit_caustic_pass(sample_index, self.settings.height);
         }
         let params = self.frame_params(sample_index, 1, rows.start, rows.end - rows.start);
         self.dispatch(&self.kernel.render, params)
@@ -473,6 +541,9 @@ impl Backend for GpuBackend {
 
     fn set_camera(&mut self, camera: &crate::scene::layout::Camera) -> Result<()> {
         self.camera = *camera;
+        self.light_traced =
+            self.caustics_kernel.is_some() && crate::cpu::camera_supports_light_tracing(camera);
+        self.caustic_pass = None;
         self.ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(camera));
         Ok(())
     }

@@ -17,6 +17,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("camera.wgsl", include_str!("../../shaders/camera.wgsl")),
     ("film.wgsl", include_str!("../../shaders/film.wgsl")),
     ("integrator.wgsl", include_str!("../../shaders/integrator.wgsl")),
+    ("light_tracing.wgsl", include_str!("../../shaders/light_tracing.wgsl")),
 ];
 
 /// The composed source of the first `count` files.
@@ -166,6 +167,10 @@ mod tests {
             ("SHADOW_EPSILON", crate::geometry::SHADOW_EPSILON as f64),
             ("DIMENSION_STEP", crate::sampling::DIMENSION_STEP as f64),
             ("SPLIT_STREAM_SALT", crate::sampling::SPLIT_STREAM_SALT as f64),
+            ("LIGHT_RR_MIN_VERTICES", crate::cpu::LIGHT_RR_MIN_VERTICES as f64),
+            ("LIGHT_PATH_STREAM", crate::cpu::LIGHT_PATH_STREAM as f64),
+            ("CAUSTIC_FRACTION_BITS", crate::cpu::CAUSTIC_FRACTION_BITS as f64),
+            ("CAUSTIC_MAX_FIXED", crate::cpu::CAUSTIC_MAX_FIXED as f64),
         ];
         for (name, value) in shared {
             assert_eq!(constant(name), *value, "constant {name}: WGSL vs Rust");

@@ -79,7 +79,7 @@ pub fn spot_falloff(light: &Light, cos_theta: f32) -> f32 {
 
 /// A uniformly distributed point on triangle `t` (density 1 / area): its barycentrics, the
 /// point, and the point's error bound as an interpolated point (pbrt-v4
-/// `Triangle::Sample`). The kernel's `sample_light` computes the same inline.
+/// `Triangle::Sample`). WGSL twin: `sample_triangle_point` in shaders/light.wgsl.
 #[inline(always)]
 pub fn sample_triangle_point(t: &Triangle, u: Vec2) -> (Vec3, Vec3, Vec3) {
     let (p0, p1, p2) = (Vec3::from(t.p0), Vec3::from(t.p1), Vec3::from(t.p2));

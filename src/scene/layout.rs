@@ -343,7 +343,7 @@ pub const PROJECTION_PERSPECTIVE: u32 = 0;
 pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
 
 gpu_struct! {
-    /// What one dispatch computes, 56 bytes.
+    /// What one dispatch computes, 60 bytes.
     pub struct FrameParams {
         pub width: u32,
         pub height: u32,
@@ -370,6 +370,10 @@ gpu_struct! {
         pub sampler_kind: u32,
         /// Continuations per camera sample (`RenderSettings::splits`; 1: no splitting).
         pub splits: u32,
+        /// 1: the caustic paths are light traced (`crate::cpu::supports_light_tracing`):
+        /// `render` leaves them out and adds the light tracer's image for its one sample
+        /// index (`samples` is then 1); 0: every path is path traced.
+        pub light_traced_caustics: u32,
     }
 }
 
