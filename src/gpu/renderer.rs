@@ -521,7 +521,9 @@ impl Backend for GpuBackend {
             self.fold_rays_before(if self.light_traced { 2 } else { 1 })?;
         }
         if self.light_traced && self.caustic_pass != Some(sample_index) {
-            self.submit_caustic_pass(sample_index, self.settings.height);
+            // In bands of this band's height: a device slow enough to need bands would take
+            // as long over a whole image's light paths in one dispatch.
+            self.submit_caustic_pass(sample_index, rows.end - rows.start);
         }
         let params = self.frame_params(sample_index, 1, rows.start, rows.end - rows.start);
         self.dispatch(&self.kernel.render, params)
