@@ -12,7 +12,6 @@ fn generate_camera_ray(width: u32, height: u32, x: u32, y: u32, u: vec2<f32>) ->
     return Ray(camera.position, normalize(camera.forward + right + up), F32_MAX);
 }
 
-
 // Twin of `PinholeProjection::project` in src/scene/camera.rs: the pixel (row-major index)
 // whose box `p` projects into, the cosine between the view axis and the direction to `p`,
 // that unit direction and the squared distance; `valid` false outside the image or behind

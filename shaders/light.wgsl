@@ -61,11 +61,8 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_sele
         let tri = triangles[light.triangle];
         let material = materials[tri.material];
         let point = sample_triangle_point(tri, u_point);
-        let b = point.b;
-        let q = point.p;
-        let q_error = point.p_error;
         let na = triangle_light_normal_area(light);
-        let to_light = q - p;
+        let to_light = point.p - p;
         let dist2 = dot(to_light, to_light);
         if (dist2 == 0.0 || na.w == 0.0) {
             return no_light_sample();
@@ -77,8 +74,8 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_sele
             return no_light_sample();
         }
         let pdf = pmf * dist2 / (na.w * abs(cos_light));
-        let q_off = offset_ray_origin(q, q_error, na.xyz, -wi);
-        return LightSample(wi, emitted_radiance(material, light.triangle, b), pdf, false, spawn_ray_to(p, p_error, n_geometric, q_off), true);
+        let q_off = offset_ray_origin(point.p, point.p_error, na.xyz, -wi);
+        return LightSample(wi, emitted_radiance(material, light.triangle, point.b), pdf, false, spawn_ray_to(p, p_error, n_geometric, q_off), true);
     }
     if (FEATURE_POINT_LIGHTS && (light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT)) {
         let to_light = light.position - p;

@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 
 use super::integrator::{radiance, IntegratorSettings};
-use super::light_tracing::{supports_light_tracing, trace_caustic_pass};
+use super::light_tracing::{camera_supports_light_tracing, scene_supports_light_tracing, trace_caustic_pass};
 use crate::film::{film_add_sample, Film};
 use crate::render::{Backend, RenderSettings};
 use crate::sampling::{replicate_of, PathSampler};
@@ -43,8 +43,9 @@ pub struct CpuBackend<'a> {
     /// The light tracer's pass last traced, by sample index: `render_rows` asks for one
     /// sample index band by band.
     caustic_pass: Option<(u32, Vec<glam::Vec3>)>,
-    /// [`Self::light_traces_caustics`], decided when the scene or camera is set.
-    light_traced_caustics: bool,
+    /// The settings' and the scene's half of [`Self::light_traces_caustics`], decided once:
+    /// `scene_supports_light_tracing` reads every triangle.
+    scene_light_traced: bool,
 }
 
 impl<'a> CpuBackend<'a> {
@@ -53,30 +54,22 @@ impl<'a> CpuBackend<'a> {
     }
 
     fn with_scene(scene: SceneRef<'a>, settings: &RenderSettings) -> CpuBackend<'a> {
-        let mut backend = CpuBackend {
+        CpuBackend {
             camera: scene.camera,
+            scene_light_traced: settings.light_tracing && scene_supports_light_tracing(&scene),
             scene,
             settings: settings.clone(),
             film: Film::new(settings.width, settings.height),
             rays: vec![0; settings.width as usize * settings.height as usize],
             light_rays: 0,
             caustic_pass: None,
-            light_traced_caustics: false,
-        };
-        backend.decide_caustics();
-        backend
-    }
-
-    /// Decides [`Self::light_traces_caustics`] for the scene and camera now set.
-    fn decide_caustics(&mut self) {
-        self.light_traced_caustics =
-            self.settings.light_tracing && supports_light_tracing(&self.scene, &self.camera);
+        }
     }
 
     /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
     /// the scene and camera allow it)?
     pub fn light_traces_caustics(&self) -> bool {
-        self.light_traced_caustics
+        self.scene_light_traced && camera_supports_light_tracing(&self.camera)
     }
 
     fn integrator_settings(&self) -> IntegratorSettings {
@@ -163,7 +156,7 @@ impl CpuBackend<'_> {
 
 impl Backend for CpuBackend<'_> {
     fn name(&self) -> String {
-        let caustics = if self.light_traced_caustics { ", caustics light-traced" } else { "" };
+        let caustics = if self.light_traces_caustics() { ", caustics light-traced" } else { "" };
         format!("cpu ({} threads{caustics})", rayon::current_num_threads())
     }
 
@@ -187,7 +180,6 @@ impl Backend for CpuBackend<'_> {
     fn set_camera(&mut self, camera: &Camera) -> crate::Result<()> {
         self.camera = *camera;
         self.caustic_pass = None;
-        self.decide_caustics();
         Ok(())
     }
 

@@ -55,8 +55,6 @@ pub struct GpuBackend {
     /// The light tracer's kernel, where the settings ask for light tracing and the scene
     /// allows it (`crate::cpu::scene_supports_light_tracing`).
     caustics_kernel: Option<Arc<wgpu::ComputePipeline>>,
-    /// Are the caustic paths light traced: the kernel above, and a camera that allows it.
-    light_traced: bool,
     /// The sample index whose light-traced image `caustics` holds.
     caustic_pass: Option<u32>,
 }
@@ -236,8 +234,6 @@ impl GpuBackend {
             samples_since_fold: 0,
             seconds_per_sample: None,
             upload_seconds: start.elapsed().as_secs_f64(),
-            light_traced: caustics_kernel.is_some()
-                && crate::cpu::camera_supports_light_tracing(&scene.camera),
             caustics,
             caustics_kernel,
             caustic_pass: None,
@@ -248,7 +244,14 @@ impl GpuBackend {
     /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
     /// the scene and camera allow it)? As `CpuBackend::light_traces_caustics`.
     pub fn light_traces_caustics(&self) -> bool {
-        self.light_traced
+        self.caustics_kernel.is_some() && crate::cpu::camera_supports_light_tracing(&self.camera)
+    }
+
+    /// Samples' worth of rays one sample index may trace per pixel, for the bound on the
+    /// ray counters (`fold_rays_before`): its sample and, when light traced, one light path,
+    /// which traces at most as many rays.
+    fn ray_bound_per_sample(&self) -> u64 {
+        1 + self.light_traces_caustics() as u64
     }
 
     /// Queues the light tracer's pass for sample index `pass` (the image cleared, then
@@ -295,7 +298,7 @@ impl GpuBackend {
             cone_spread: cone.spread,
             sampler_kind: self.settings.sampler.index(),
             splits: self.settings.splits,
-            light_traced_caustics: self.light_traced as u32,
+            light_traced_caustics: self.light_traces_caustics() as u32,
         }
     }
 
@@ -418,7 +421,7 @@ impl GpuBackend {
 
 impl Backend for GpuBackend {
     fn name(&self) -> String {
-        let caustics = if self.light_traced { ", caustics light-traced" } else { "" };
+        let caustics = if self.light_traces_caustics() { ", caustics light-traced" } else { "" };
         format!("gpu ({}{caustics})", self.ctx.name())
     }
 
@@ -430,9 +433,7 @@ impl Backend for GpuBackend {
     /// work was split. With light-traced caustics each sample index is one dispatch, after
     /// the light tracer's pass for that index.
     fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
-        // A light path traces at most as many rays as a sample.
-        let passes = if self.light_traced { 2 } else { 1 };
-        self.fold_rays_before(passes * samples as u64)?;
+        self.fold_rays_before(self.ray_bound_per_sample() * samples as u64)?;
         let (w, h) = (self.settings.width, self.settings.height);
         // (submission, pixel-samples of work, time submitted)
         let mut in_flight: std::collections::VecDeque<(wgpu::SubmissionIndex, f64, Instant)> =
@@ -459,7 +460,7 @@ impl Backend for GpuBackend {
                     }
                 }
             };
-            let spp = if self.light_traced {
+            let spp = if self.light_traces_caustics() {
                 if self.caustic_pass != Some(sample_offset + done) {
                     self.submit_caustic_pass(sample_offset + done, rows);
                 }
@@ -518,9 +519,9 @@ impl Backend for GpuBackend {
         }
         // One sample per pixel of the band; counted once per full pass for the fold bound.
         if rows.start == 0 {
-            self.fold_rays_before(if self.light_traced { 2 } else { 1 })?;
+            self.fold_rays_before(self.ray_bound_per_sample())?;
         }
-        if self.light_traced && self.caustic_pass != Some(sample_index) {
+        if self.light_traces_caustics() && self.caustic_pass != Some(sample_index) {
             // In bands of this band's height: a device slow enough to need bands would take
             // as long over a whole image's light paths in one dispatch.
             self.submit_caustic_pass(sample_index, rows.end - rows.start);
@@ -543,8 +544,6 @@ impl Backend for GpuBackend {
 
     fn set_camera(&mut self, camera: &crate::scene::layout::Camera) -> Result<()> {
         self.camera = *camera;
-        self.light_traced =
-            self.caustics_kernel.is_some() && crate::cpu::camera_supports_light_tracing(camera);
         self.caustic_pass = None;
         self.ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(camera));
         Ok(())
