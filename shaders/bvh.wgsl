@@ -1,13 +1,12 @@
-// Twin of src/bvh/traverse.rs: stack-based traversal of the flat BVH, nearer child first,
-// in two tiers: with the stack in registers while it fits, else with an array stack.
+// Twin of src/bvh/traverse.rs: traversal of the flat BVH, nearer child first, with a short
+// stack in registers and a restart trail instead of a full stack (Laine 2010, "Restart Trail
+// for Stackless BVH Traversal", HPG): no private array at all.
 
-const TRAVERSAL_STACK_SIZE: u32 = 64u;
-// Deferred children the register stack of `traverse_in_registers` holds.
-const REGISTER_STACK_SIZE: u32 = 8u;
-// How many of them it may use before the traversal starts over with the array stack: all
-// of them, except in tests, which lower it (0: always the array stack) to show that both
-// tiers give the same image.
-override REGISTER_STACK_LIMIT: u32 = REGISTER_STACK_SIZE;
+// Deferred children the short stack holds in its two vec4<u32> registers.
+const SHORT_STACK_SIZE: u32 = 8u;
+// How many of them it may use: all, except in tests, which lower it (0: a restart from the
+// root after every leaf) to show that the image does not depend on it.
+override SHORT_STACK_LIMIT: u32 = SHORT_STACK_SIZE;
 
 // Rays this invocation has traced (closest-hit and any-hit), for throughput reporting.
 var<private> rays_traced: u32;
@@ -50,145 +49,180 @@ fn visit_leaf(leaf: BvhNode, pre: TraversalPrecomp, any_hit: bool, alpha_seed: u
     return false;
 }
 
-// Where traversal goes from interior node `current`: the child to visit next (`descend`
-// false when the ray misses both) and, when it overlaps both, the farther one to defer.
+// The restart trail's 64 bits as (bits 63..32, bits 31..0): depth d (1 ..= 64, the root's
+// children 1) is bit 64 − d, so deeper levels are less significant and marking a node done is
+// one addition whose carry moves up past the levels finished with it (Laine 2010 §3). WGSL has
+// no 64-bit integers; the twin's u64 operations are spelt out on the two words. A tree no
+// deeper than 32 levels below its root (every scene without FEATURE_DEEP_TREE) uses only the
+// first, and the second's arithmetic folds away.
+fn trail_bit(depth: u32) -> vec2<u32> {
+    if (!FEATURE_DEEP_TREE || depth <= 32u) {
+        return vec2<u32>(1u << (32u - depth), 0u);
+    }
+    return vec2<u32>(0u, 1u << (64u - depth));
+}
+
+fn trail_has(trail: vec2<u32>, depth: u32) -> bool {
+    return any((trail & trail_bit(depth)) != vec2<u32>(0u));
+}
+
+// `trail`'s bits for depths 1 ..= `depth` (1 ..= 64).
+fn trail_through(trail: vec2<u32>, depth: u32) -> vec2<u32> {
+    if (!FEATURE_DEEP_TREE || depth <= 32u) {
+        return vec2<u32>(trail.x & (0xffffffffu << (32u - depth)), 0u);
+    }
+    return vec2<u32>(trail.x, trail.y & (0xffffffffu << (64u - depth)));
+}
+
+// The trail once the node at `depth` (≥ 1) is done: its deeper bits cleared and its own bit
+// added with carry. Zero when the carry leaves the top: the whole tree is done.
+fn trail_pop(trail: vec2<u32>, depth: u32) -> vec2<u32> {
+    let kept = trail_through(trail, depth);
+    let bit = trail_bit(depth);
+    if (!FEATURE_DEEP_TREE) {
+        return vec2<u32>(kept.x + bit.x, 0u);
+    }
+    let low = kept.y + bit.y;
+    return vec2<u32>(kept.x + bit.x + select(0u, 1u, low < kept.y), low);
+}
+
+fn trail_is_empty(trail: vec2<u32>) -> bool {
+    return trail.x == 0u && (!FEATURE_DEEP_TREE || trail.y == 0u);
+}
+
+// The depth of the trail's lowest set bit (trail ≠ 0).
+fn trail_depth(trail: vec2<u32>) -> u32 {
+    if (FEATURE_DEEP_TREE && trail.y != 0u) {
+        return 64u - countTrailingZeros(trail.y);
+    }
+    return 32u - countTrailingZeros(trail.x);
+}
+
+// Twin of `Trail`: per depth on the path to the current node, `passed` says the traversal is
+// in the last child it will visit there, `single` that it is the only child the ray
+// overlapped (src/bvh/traverse.rs explains why a restart needs both).
+struct Trail {
+    passed: vec2<u32>,
+    single: vec2<u32>,
+}
+
+// Where traversal goes from an interior node: the child to visit next (`descend` false when
+// neither) and, when the ray overlaps both and the nearer is next, the farther one to defer.
 struct ChildStep {
     next: u32,
     descend: bool,
     deferred: u32,
     defer: bool,
+    trail: Trail,
 }
 
 // Both children's boxes are tested at their parent; the first is stored right after it, the
-// second at its offset. The nearer of two overlapped children goes first (ties: the first).
-fn child_step(pre: TraversalPrecomp, t_max: f32, current: u32, node: BvhNode) -> ChildStep {
+// second at its offset. Which is nearer is decided from their entry distances without
+// `t_max` (ties: the first), so that it reads the same when a restart comes back with a
+// shorter `t_max`; only then is each tested against `t_max`.
+fn child_step(pre: TraversalPrecomp, t_max: f32, current: u32, node: BvhNode, depth: u32, trail: Trail) -> ChildStep {
     let first = current + 1u;
     let second = node.offset;
-    let a = box_entry(pre.boxes, t_max, nodes[first].bounds_min, nodes[first].bounds_max);
-    let b = box_entry(pre.boxes, t_max, nodes[second].bounds_min, nodes[second].bounds_max);
-    let first_next = a >= 0.0 && (b < 0.0 || a <= b);
-    return ChildStep(
-        select(second, first, first_next),
-        a >= 0.0 || b >= 0.0,
-        select(first, second, first_next),
-        a >= 0.0 && b >= 0.0,
+    let a = box_entry(pre.boxes, F32_MAX, nodes[first].bounds_min, nodes[first].bounds_max);
+    let b = box_entry(pre.boxes, F32_MAX, nodes[second].bounds_min, nodes[second].bounds_max);
+    let first_nearer = a >= 0.0 && (b < 0.0 || a <= b);
+    let near = select(second, first, first_nearer);
+    let far = select(first, second, first_nearer);
+    let near_entry = select(b, a, first_nearer);
+    let far_entry = select(a, b, first_nearer);
+    let hit_near = near_entry >= 0.0 && entry_within(near_entry, t_max);
+    let hit_far = far_entry >= 0.0 && entry_within(far_entry, t_max);
+
+    let child = depth + 1u;
+    let bit = trail_bit(child);
+    let passed = trail_has(trail.passed, child);
+    // The nearer of two is done: only the farther may be left.
+    let far_only = passed && !trail_has(trail.single, child);
+    let one_hit = hit_near != hit_far;
+    let new_level = !passed && one_hit;
+    // The nearer child culled: whatever the trail held below it is moot (the twin says why
+    // a restart never meets this).
+    let kept = select(trail.passed, trail_through(trail.passed, child), hit_far);
+    let step = ChildStep(
+        select(select(far, near, hit_near), far, far_only),
+        select(hit_near || hit_far, hit_far, far_only),
+        far,
+        !passed && hit_near && hit_far,
+        Trail(
+            select(trail.passed, kept | bit, new_level),
+            select(trail.single, select(trail.single & ~bit, trail.single | bit, one_hit), !passed),
+        ),
     );
+    return step;
 }
 
-// Visits the leaves the ray may touch, nearer child first (twin of `traverse` in
-// src/bvh/traverse.rs: both children's boxes are tested at their parent, the farther one
-// deferred). With `any_hit` it returns at the first hit found (shadow rays); otherwise the
-// nearest hit. Unlike the CPU twin it keeps no entry distances to drop deferred children
-// whose entry lies beyond the nearest hit: a second private array cost as much on lavapipe
-// as the culling saved (bunny in the Cornell box: 0.088 vs 0.089 Msamples/s; Cornell box
-// 5% slower). The hits found are the same either way.
-fn traverse_with_stack(ray_in: Ray, any_hit: bool, alpha_seed: u32) -> ClosestHit {
+// Visits the leaves the ray may touch, nearer child first (twin of
+// `traverse_with_short_stack`): the closest hit, or with `any_hit` the first hit found
+// (shadow rays). Up to SHORT_STACK_LIMIT deferred children wait in two vec4<u32> registers,
+// the latest in stack_low.x; a deeper deferral pushes the oldest out, and when the registers
+// run dry the traversal descends from the root again along its trail. Lavapipe keeps a
+// private array in memory and writes it lane by lane: the array stack this replaced cost
+// 13% of its render time in writes (bench/RESULTS.md, third session), and its mere presence
+// more. A deferred child is not tested against the nearest hit again when it is taken up:
+// that would need its entry distance held beside it (a second private array cost as much on
+// lavapipe as the culling saved). The hits found are the same either way.
+fn traverse(ray_in: Ray, any_hit: bool, alpha_seed: u32) -> ClosestHit {
+    rays_traced += 1u;
     var ray = ray_in;
     var best = ClosestHit(INVALID_INDEX, vec3<f32>(0.0), 0.0);
     let pre = TraversalPrecomp(ray_box_precomp(ray), ray_triangle_precomp(ray));
     if (box_entry(pre.boxes, ray.t_max, nodes[0].bounds_min, nodes[0].bounds_max) < 0.0) {
         return best;
     }
-    var stack: array<u32, TRAVERSAL_STACK_SIZE>;
+    let stack_limit = min(SHORT_STACK_LIMIT, SHORT_STACK_SIZE);
+    var stack_low = vec4<u32>(0u);
+    var stack_high = vec4<u32>(0u);
     var sp = 0u;
+    var trail = Trail(vec2<u32>(0u), vec2<u32>(0u));
     var current = 0u;
+    var depth = 0u;
     loop {
         let node = nodes[current];
-        var descend = false;
         if (node_triangle_count(node) > 0u) {
             if (visit_leaf(node, pre, any_hit, alpha_seed, &ray, &best)) {
                 return best;
             }
         } else {
-            let step = child_step(pre, ray.t_max, current, node);
-            if (step.defer) {
-                stack[sp] = step.deferred;
-                sp += 1u;
+            let step = child_step(pre, ray.t_max, current, node, depth, trail);
+            trail = step.trail;
+            if (step.descend) {
+                if (step.defer) {
+                    stack_high = vec4<u32>(stack_low.w, stack_high.xyz);
+                    stack_low = vec4<u32>(step.deferred, stack_low.xyz);
+                    sp = min(sp + 1u, stack_limit);
+                }
+                current = step.next;
+                depth += 1u;
+                continue;
             }
-            current = step.next;
-            descend = step.descend;
         }
-        if (descend) {
-            continue;
-        }
-        if (sp == 0u) {
+        // `current` is done, and with it every ancestor whose last child it was.
+        if (depth == 0u) {
             break;
         }
-        sp -= 1u;
-        current = stack[sp];
+        trail.passed = trail_pop(trail.passed, depth);
+        if (trail_is_empty(trail.passed)) {
+            break;
+        }
+        depth = trail_depth(trail.passed);
+        if (sp > 0u) {
+            // The farther child deferred at `depth`: the latest deferral still pending.
+            current = stack_low.x;
+            stack_low = vec4<u32>(stack_low.yzw, stack_high.x);
+            stack_high = vec4<u32>(stack_high.yzw, 0u);
+            sp -= 1u;
+        } else {
+            // Its deferral was pushed out: down from the root again, along the trail.
+            current = 0u;
+            depth = 0u;
+        }
     }
     return best;
-}
-
-struct RegisterTraversal {
-    hit: ClosestHit,
-    // A child more had to be deferred than the registers hold; `hit` is then incomplete.
-    overflowed: bool,
-}
-
-// `traverse_with_stack` with its stack in two vec4<u32> registers, shifted on each push and
-// pop, instead of a private array. Lavapipe keeps a private array in memory and writes it
-// lane by lane, reading masked-off lanes' old values back (13% of its render time), and the
-// array's presence cost more: the Cornell box renders 1.3× faster without it
-// (bench/RESULTS.md).
-fn traverse_in_registers(ray_in: Ray, any_hit: bool, alpha_seed: u32) -> RegisterTraversal {
-    var ray = ray_in;
-    var best = ClosestHit(INVALID_INDEX, vec3<f32>(0.0), 0.0);
-    let pre = TraversalPrecomp(ray_box_precomp(ray), ray_triangle_precomp(ray));
-    if (box_entry(pre.boxes, ray.t_max, nodes[0].bounds_min, nodes[0].bounds_max) < 0.0) {
-        return RegisterTraversal(best, false);
-    }
-    // The deferred children, the latest in stack_low.x, then .y, .z, .w, stack_high.x, ….
-    var stack_low = vec4<u32>(0u);
-    var stack_high = vec4<u32>(0u);
-    var sp = 0u;
-    var current = 0u;
-    loop {
-        let node = nodes[current];
-        var descend = false;
-        if (node_triangle_count(node) > 0u) {
-            if (visit_leaf(node, pre, any_hit, alpha_seed, &ray, &best)) {
-                return RegisterTraversal(best, false);
-            }
-        } else {
-            let step = child_step(pre, ray.t_max, current, node);
-            if (step.defer) {
-                if (sp >= min(REGISTER_STACK_LIMIT, REGISTER_STACK_SIZE)) {
-                    return RegisterTraversal(best, true);
-                }
-                stack_high = vec4<u32>(stack_low.w, stack_high.xyz);
-                stack_low = vec4<u32>(step.deferred, stack_low.xyz);
-                sp += 1u;
-            }
-            current = step.next;
-            descend = step.descend;
-        }
-        if (descend) {
-            continue;
-        }
-        if (sp == 0u) {
-            break;
-        }
-        sp -= 1u;
-        current = stack_low.x;
-        stack_low = vec4<u32>(stack_low.yzw, stack_high.x);
-        stack_high = vec4<u32>(stack_high.yzw, 0u);
-    }
-    return RegisterTraversal(best, false);
-}
-
-// Visits the leaves in `traverse_with_stack`'s order: in registers while at most
-// REGISTER_STACK_SIZE children are deferred (every ray in a Cornell box, most rays of a
-// 10⁴-triangle scene), else over again from the root with the array stack. Both visit the
-// same leaves in the same order up to the overflow, so the result is `traverse_with_stack`'s
-// either way. Lavapipe skips the array tier whenever no lane of a SIMD group needs it.
-fn traverse(ray: Ray, any_hit: bool, alpha_seed: u32) -> ClosestHit {
-    rays_traced += 1u;
-    let fast = traverse_in_registers(ray, any_hit, alpha_seed);
-    if (!fast.overflowed) {
-        return fast.hit;
-    }
-    return traverse_with_stack(ray, any_hit, alpha_seed);
 }
 
 // The nearest intersection in (0, ray.t_max); alpha-tested hits by `alpha_seed`.

@@ -15,6 +15,7 @@ override FEATURE_NORMAL_MAPS: bool = true;
 override FEATURE_ALPHA: bool = true;
 override FEATURE_CLEARCOAT: bool = true;
 override FEATURE_SHEEN: bool = true;
+override FEATURE_DEEP_TREE: bool = true;
 
 // Can the kernel split samples (`frame.splits` > 1)? Off, the split vertex and its
 // bookkeeping fold away (src/gpu/context.rs builds one kernel each way on demand).

@@ -5,7 +5,10 @@
 mod common;
 
 use glam::Vec3;
-use pathlight::bvh::{build, intersect_any, intersect_closest, Traversal, WideBvh, MAX_DEPTH};
+use pathlight::bvh::{
+    build, intersect_any, intersect_closest, traverse_with_short_stack, Traversal, WideBvh, MAX_DEPTH,
+    SHORT_STACK_SIZE,
+};
 use pathlight::geometry::{intersect_triangle, spawn_ray, triangle_error_bound, Ray};
 use pathlight::sampling::{sample_uniform_sphere, Rng};
 use pathlight::scene::layout::Triangle;
@@ -114,8 +117,31 @@ fn check_against_brute_force(
     what: &str,
 ) {
     check_tree_against_brute_force(nodes, triangles, ray, &format!("{what}, binary tree"));
+    // Shorter stacks restart from the root more often (0: after every leaf), following the
+    // restart trail back; the answer must not change.
+    for limit in [0, 1, 2] {
+        check_tree_against_brute_force(
+            &ShortStack { nodes, limit },
+            triangles,
+            ray,
+            &format!("{what}, binary tree, short stack of {limit}"),
+        );
+    }
     let wide = WideBvh::collapse(nodes);
     check_tree_against_brute_force(&wide, triangles, ray, &format!("{what}, 8-wide tree"));
+}
+
+/// The binary tree traversed with a short stack of `limit` entries instead of
+/// [`SHORT_STACK_SIZE`].
+struct ShortStack<'a> {
+    nodes: &'a [pathlight::scene::layout::BvhNode],
+    limit: usize,
+}
+
+impl Traversal for ShortStack<'_> {
+    fn traverse(&self, ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
+        traverse_with_short_stack(self.nodes, self.limit, ray, visit)
+    }
 }
 
 fn check_tree_against_brute_force<T: Traversal + ?Sized>(
@@ -275,7 +301,8 @@ fn spawned_rays_never_rehit_their_triangle() {
 #[test]
 fn tree_depth_is_bounded_on_adversarial_input() {
     // Triangles at exponentially growing distances make SAH splits peel one triangle at a
-    // time; the median fallback must keep the tree within the traversal stack.
+    // time; the median fallback must keep the tree within the traversal's bounds
+    // (the CPU's stack, the GPU's 64-bit restart trail).
     let tris: Vec<[Vec3; 3]> = (0..20_000)
         .map(|i| {
             let x = 1.001f32.powi(i);
@@ -291,4 +318,53 @@ fn tree_depth_is_bounded_on_adversarial_input() {
     let (nodes, triangles) = to_flat(&same);
     let ray = Ray { origin: Vec3::new(0.2, 0.2, 1.0), direction: -Vec3::Z, t_max: f32::MAX };
     assert!(intersect_closest(&nodes, &triangles, &ray).is_some());
+}
+
+#[test]
+fn restart_trail_is_exact_on_a_deep_tree() {
+    // The deepest trees there are over a row of growing squares (common::chain_tree): leaves
+    // down to depth 59 (single triangles) and 60 (pairs, whose farther children are nodes
+    // of their own), so rays along the row pass depth 32, where the kernel's 64-bit trail
+    // crosses from one 32-bit word into the other, overlap both children at nearly every
+    // level and overflow any short stack. With 0, 1, 2 and the full SHORT_STACK_SIZE
+    // entries, closest and any hits equal brute force.
+    for pairs in [false, true] {
+        let triangles = common::deep_row(pairs);
+        let nodes = common::chain_tree(&triangles, if pairs { 2 } else { 1 });
+        let depths = common::leaf_depths(&nodes);
+        let mut rng = Rng::new(6, 6, 6, 6);
+        let (mut shallowest, mut deepest) = (u32::MAX, 0);
+        for i in 0..300 {
+            // Beside the axis by up to 1.5^40, so that the nearest square hit varies.
+            let offset = 1.5f32.powf(rng.next_1d() * 40.0);
+            let (y, z) = (rng.next_1d() * offset, rng.next_1d() * offset);
+            let slant = Vec3::new(0.0, rng.next_1d() - 0.5, rng.next_1d() - 0.5) * 0.5;
+            let ray = match i % 3 {
+                // Along the row from either end, and from inside it.
+                0 => Ray { origin: Vec3::new(0.0, y, z), direction: Vec3::X + slant, t_max: f32::MAX },
+                1 => Ray { origin: Vec3::new(1e12, y, z), direction: -Vec3::X + slant, t_max: f32::MAX },
+                _ => Ray {
+                    origin: Vec3::new(1.5f32.powf(rng.next_1d() * 60.0), y, z),
+                    direction: if i % 2 == 0 { Vec3::X } else { -Vec3::X } + slant,
+                    t_max: f32::MAX,
+                },
+            };
+            for limit in [0, 1, 2, SHORT_STACK_SIZE] {
+                check_tree_against_brute_force(
+                    &ShortStack { nodes: &nodes, limit },
+                    &triangles,
+                    &ray,
+                    &format!("deep tree (pairs: {pairs}), short stack of {limit}"),
+                );
+            }
+            if let Some(hit) = intersect_closest(&nodes, &triangles, &ray) {
+                shallowest = shallowest.min(depths[hit.triangle as usize]);
+                deepest = deepest.max(depths[hit.triangle as usize]);
+            }
+        }
+        assert!(
+            shallowest < 32 && deepest > 33,
+            "pairs: {pairs}: the hits lie at depths {shallowest} to {deepest}: the test misses its point"
+        );
+    }
 }

@@ -607,35 +607,136 @@ fn textured_models_gpu_match_cpu() {
 }
 
 #[test]
-fn register_and_array_traversal_stacks_give_the_same_image() {
-    // The traversal keeps up to REGISTER_STACK_SIZE deferred children in registers and starts
-    // over with its array stack when it needs more (shaders/bvh.wgsl). Both visit the same
-    // leaves in the same order, so lowering the limit, to 0 (always the array stack) or to 2
-    // (the 10⁴-triangle spheres overflow it on most rays), must leave every pixel's statistics
-    // bit for bit the same: the same triangle and barycentrics from the same arithmetic.
+fn short_stack_size_does_not_change_the_image() {
+    // The traversal keeps up to SHORT_STACK_SIZE deferred children in registers, pushing the
+    // oldest out, and restarts from the root along its trail when they run out
+    // (shaders/bvh.wgsl). It visits the leaves in the same order whatever the stack holds,
+    // less those a nearer hit culls, so lowering the limit, to 0 (a restart after every leaf)
+    // or to 2 (the 10⁴-triangle spheres overflow it on most rays), must leave every pixel's
+    // statistics bit for bit the same: the same triangle and barycentrics from the same
+    // arithmetic.
     let Some(ctx) = common::gpu() else { return };
     let (size, spp) = (24, 4);
     let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
     let render = |limit: u32| {
-        let kernel = ctx.kernel_with_register_stack_limit(scene.features, false, limit).unwrap();
+        let kernel = ctx.kernel_with_short_stack_limit(scene.features, false, limit).unwrap();
         let mut backend =
             GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &settings(size, spp, 3)).unwrap();
         let film = common::render(&mut backend, spp);
         (film, backend.first_hits().unwrap())
     };
-    let (registers, registers_hits) = render(pathlight::gpu::REGISTER_STACK_SIZE);
+    let (full, full_hits) = render(pathlight::bvh::SHORT_STACK_SIZE as u32);
     for limit in [0, 2] {
-        let (array, array_hits) = render(limit);
-        let differing = registers
+        let (short, short_hits) = render(limit);
+        let differing = full
             .pixels
             .iter()
-            .zip(&array.pixels)
+            .zip(&short.pixels)
             .filter(|(a, b)| bytemuck::bytes_of(*a) != bytemuck::bytes_of(*b))
             .count();
         assert_eq!(differing, 0, "limit {limit}: {differing} of {} pixels differ", size * size);
         assert!(
-            bytemuck::cast_slice::<_, u8>(&registers_hits) == bytemuck::cast_slice::<_, u8>(&array_hits),
+            bytemuck::cast_slice::<_, u8>(&full_hits) == bytemuck::cast_slice::<_, u8>(&short_hits),
             "limit {limit}: the first hits differ"
+        );
+    }
+}
+
+/// `common::deep_row(pairs)` seen by a camera at (0, offset, offset) that looks along +x, in
+/// the deepest tree there is over it (`common::chain_tree`) instead of the builder's. The
+/// camera's rays pass beside the squares smaller than about 2·offset and hit the next.
+fn deep_chain_scene(pairs: bool, offset: f32) -> pathlight::scene::FlatScene {
+    use base64::Engine;
+    use serde_json::json;
+    let row = common::deep_row(pairs);
+    let mut bin: Vec<u8> = Vec::new();
+    for t in &row {
+        for v in t.p0.iter().chain(&t.p1).chain(&t.p2) {
+            bin.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let extent = row.last().unwrap().p0[0];
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0, 1]}],
+        // glTF cameras look along −z; a quarter turn about y makes that +x.
+        "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0.0, offset, offset], "rotation": [0.0, -std::f32::consts::FRAC_1_SQRT_2, 0.0, std::f32::consts::FRAC_1_SQRT_2]}],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 1.0, "znear": 0.01}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3 * row.len(), "type": "VEC3", "min": [1.0, 0.0, 0.0], "max": [extent, extent, extent]}],
+        "bufferViews": [{"buffer": 0, "byteLength": bin.len()}],
+        "buffers": [{"byteLength": bin.len(), "uri": format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bin))}]
+    });
+    let path = std::env::temp_dir().join(format!("pathlight-deep-chain-{}.gltf", std::process::id()));
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let (loaded, _) = pathlight::scene::load(&path).unwrap();
+    let _ = std::fs::remove_file(&path);
+    let view = pathlight::scene::ViewSettings { camera: None, aspect: 1.0 };
+    let mut scene = pathlight::scene::FlatScene::build(&loaded, &view).unwrap();
+    assert!(scene.texcoords.is_empty() && scene.tangents.is_empty());
+    // Back in the row's order (nearest first, a square's lower half first: its p1 has the
+    // lesser z), then the chain over it.
+    let key = |t: &pathlight::scene::layout::Triangle| (t.p0[0], t.p1[2]);
+    let mut order: Vec<usize> = (0..scene.triangles.len()).collect();
+    order.sort_by(|&a, &b| key(&scene.triangles[a]).partial_cmp(&key(&scene.triangles[b])).unwrap());
+    scene.triangles = order.iter().map(|&i| scene.triangles[i]).collect();
+    scene.normals = order.iter().map(|&i| scene.normals[i]).collect();
+    scene.nodes = common::chain_tree(&scene.triangles, if pairs { 2 } else { 1 });
+    scene.wide_bvh = pathlight::bvh::WideBvh::collapse(&scene.nodes);
+    // The chain is 59 or 60 levels deep: the kernel needs both of its trail's words.
+    scene.features.deep_tree = true;
+    scene
+}
+
+#[test]
+fn restart_trail_is_exact_past_depth_32() {
+    // Camera rays along the deep chains overlap both children at nearly every level down to
+    // the squares they pass beside, then go back up through the deferred children to the
+    // first square they hit. With the camera beside the axis at 1.5^20, 1.5^25 and 1.5^30,
+    // those lie past depth 32, around it and above it, so the restarts' trail runs through
+    // both of the kernel's 32-bit words and the carry between them; the pairs' chain adds
+    // deferred children that are nodes. Whatever the short stack holds, every pixel's first
+    // hit is the same, and the CPU's (8-wide tree) agrees.
+    let Some(ctx) = common::gpu() else { return };
+    let size = 16;
+    for pairs in [false, true] {
+        let (mut shallowest, mut deepest) = (u32::MAX, 0);
+        for k in [20, 25, 30] {
+            let scene = deep_chain_scene(pairs, 1.5f32.powi(k));
+            let depths = common::leaf_depths(&scene.nodes);
+            let hits = |limit: u32| {
+                let kernel = ctx.kernel_with_short_stack_limit(scene.features, false, limit).unwrap();
+                let mut backend =
+                    GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &settings(size, 1, 3)).unwrap();
+                backend.first_hits().unwrap()
+            };
+            let full = hits(pathlight::bvh::SHORT_STACK_SIZE as u32);
+            for y in 0..size {
+                for x in 0..size {
+                    let g = &full[(y * size + x) as usize];
+                    let c = pathlight::cpu::first_hit(&scene, size, size, x, y, 3);
+                    let what = format!("pairs: {pairs}, 1.5^{k}, ({x},{y})");
+                    assert_eq!(
+                        g.triangle, c.triangle,
+                        "{what}: GPU hit {} but the CPU {}",
+                        g.triangle, c.triangle
+                    );
+                    if let Some(&depth) = depths.get(g.triangle as usize) {
+                        shallowest = shallowest.min(depth);
+                        deepest = deepest.max(depth);
+                    }
+                }
+            }
+            for limit in [0, 2] {
+                assert!(
+                    bytemuck::cast_slice::<_, u8>(&full) == bytemuck::cast_slice::<_, u8>(&hits(limit)),
+                    "pairs: {pairs}, 1.5^{k}, limit {limit}: the first hits differ"
+                );
+            }
+        }
+        assert!(
+            shallowest < 32 && deepest > 33,
+            "pairs: {pairs}: the hits lie at depths {shallowest} to {deepest}: the test misses its point"
         );
     }
 }

@@ -25,8 +25,8 @@ const MAX_LEAF_TRIANGLES: usize = 8;
 /// SAH cost of one traversal step relative to one triangle test (pbrt-v4 uses ½).
 const TRAVERSAL_COST: f32 = 0.5;
 /// Beyond this depth nodes split at the object median, which halves the count at every
-/// level; so no tree is deeper than this plus log₂(2³²) = 32 levels, which bounds the
-/// traversal stack.
+/// level; so no tree is deeper than this plus log₂(2³²) = 32 levels, which bounds the CPU's
+/// traversal stack and the GPU's 64-bit restart trail.
 const MEDIAN_SPLIT_DEPTH: usize = 32;
 /// The deepest a tree built here can be (root = depth 1).
 pub const MAX_DEPTH: usize = MEDIAN_SPLIT_DEPTH + 32;

@@ -11,7 +11,7 @@ mod wide;
 
 pub use build::{build, Bvh, BvhStats, MAX_DEPTH};
 pub use traverse::{
-    intersect_any, intersect_any_filtered, intersect_closest, intersect_closest_filtered, ClosestHit,
-    Traversal, TRAVERSAL_STACK_SIZE,
+    intersect_any, intersect_any_filtered, intersect_closest, intersect_closest_filtered,
+    traverse_with_short_stack, ClosestHit, Traversal, SHORT_STACK_SIZE,
 };
 pub use wide::{WideBvh, WideNode};

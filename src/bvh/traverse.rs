@@ -1,4 +1,7 @@
-//! Stack-based traversal of the flat BVH, nearer child first (after pbrt-v4 §7.3.5).
+//! Traversal of the flat binary BVH, nearer child first (after pbrt-v4 §7.3.5), with a
+//! short stack and a restart trail instead of a full stack (Laine 2010, "Restart Trail for
+//! Stackless BVH Traversal", HPG): the twin of `traverse` in shaders/bvh.wgsl, where the
+//! short stack lives in registers and no array is needed at all.
 
 use glam::Vec3;
 
@@ -10,9 +13,43 @@ use crate::scene::layout::{BvhNode, Triangle};
 use super::build::MAX_DEPTH;
 use super::wide::{traverse_wide, WideBvh};
 
-/// Entries in the traversal stack: one per level is enough, because each level pushes at
-/// most one deferred child.
-pub const TRAVERSAL_STACK_SIZE: usize = MAX_DEPTH;
+/// Deferred children the traversal keeps (its short stack). Deeper deferrals drop the
+/// oldest; when the stack runs dry the traversal starts over from the root and follows its
+/// trail back. The GPU holds these in two `vec4<u32>` registers: lavapipe writes a private
+/// array lane by lane and its mere presence cost more than its writes (bench/RESULTS.md).
+pub const SHORT_STACK_SIZE: usize = 8;
+
+// The trail holds one bit per depth below the root: MAX_DEPTH counts the root as depth 1, so
+// the deepest child is at depth MAX_DEPTH − 1 here, where the root is depth 0.
+const _: () = assert!(MAX_DEPTH - 1 <= 64, "the restart trail is 64 bits");
+
+/// The trail's bit for depth `depth` (1 ..= 64): bit 64 − depth, so that deeper levels are
+/// less significant and marking a node done is one addition, whose carry moves up past the
+/// levels that are finished too (Laine 2010 §3).
+#[inline(always)]
+fn trail_bit(depth: u32) -> u64 {
+    1u64 << (64 - depth)
+}
+
+/// `trail`'s bits for depths 1 ..= `depth` (1 ..= 64).
+#[inline(always)]
+fn trail_through(trail: u64, depth: u32) -> u64 {
+    trail & (!0u64 << (64 - depth))
+}
+
+/// The trail once the node at `depth` (≥ 1) is done: its deeper bits cleared and its own
+/// bit added, carrying into its ancestors whose last child it was. Zero when the carry
+/// leaves the top: the whole tree is done.
+#[inline(always)]
+fn trail_pop(trail: u64, depth: u32) -> u64 {
+    trail_through(trail, depth).wrapping_add(trail_bit(depth))
+}
+
+/// The depth of `trail`'s lowest set bit (`trail` ≠ 0): where traversal goes on after a pop.
+#[inline(always)]
+fn trail_depth(trail: u64) -> u32 {
+    64 - trail.trailing_zeros()
+}
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ClosestHit {
@@ -25,25 +62,113 @@ fn vertices(t: &Triangle) -> (Vec3, Vec3, Vec3) {
     (Vec3::from(t.p0), Vec3::from(t.p1), Vec3::from(t.p2))
 }
 
-/// Visits the leaves the ray may touch, nearer first; `visit` tests a leaf's triangles, may
-/// shorten `ray.t_max`, and returns `true` to stop.
+/// The per-ray state of [`traverse_with_short_stack`] besides the node.
 ///
-/// An interior node tests both children's boxes, descends into the nearer overlap and
-/// defers the other with its entry distance; a deferred child whose entry lies beyond the
-/// nearest hit found meanwhile is dropped without loading it again (pbrt-v4 §7.3.5 orders
-/// by the split axis instead and tests each node's own box when it is visited).
-fn traverse(nodes: &[BvhNode], ray: &mut Ray, mut visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
-    let pre = RayBoxPrecomp::new(ray);
-    let entry = |node: u32, t_max: f32| {
+/// At each depth d on the path from the root to the current node, bit d of `passed` says the
+/// traversal is in the last child it will visit at that depth: the farther of two children
+/// (the nearer one done), or the only one of them the ray overlapped, which bit d of `single`
+/// marks. A clear `passed` bit means the nearer of two: the farther waits on the short stack
+/// (or was dropped from it). After a restart the traversal descends from the root following
+/// these bits. `single` is what keeps a restart exact: with `passed` alone, a level whose
+/// farther child a nearer hit has culled since (its nearer child done) would read the same as
+/// one whose ray only ever overlapped the nearer child (not done), and telling them apart
+/// would cost visiting the nearer child again.
+#[derive(Clone, Copy)]
+struct Trail {
+    passed: u64,
+    single: u64,
+}
+
+/// Where traversal goes from an interior node: the child to visit next (`None`: neither)
+/// and, when the ray overlaps both and the nearer is next, the farther one to defer.
+struct ChildStep {
+    next: Option<u32>,
+    deferred: Option<u32>,
+    trail: Trail,
+}
+
+/// Both children's boxes are tested at their parent; the first is stored right after it,
+/// the second at its offset. Which of them is nearer is decided from their entry distances
+/// without `t_max` (ties: the first), so that it reads the same when a restart comes back
+/// with a shorter `t_max`; only then is each tested against `t_max`.
+fn child_step(
+    nodes: &[BvhNode],
+    pre: &RayBoxPrecomp,
+    t_max: f32,
+    current: u32,
+    depth: u32,
+    trail: Trail,
+) -> ChildStep {
+    let entry = |node: u32| {
         let node = &nodes[node as usize];
-        box_entry(&pre, t_max, Vec3::from(node.bounds_min), Vec3::from(node.bounds_max))
+        box_entry(pre, f32::MAX, Vec3::from(node.bounds_min), Vec3::from(node.bounds_max))
     };
-    if entry(0, ray.t_max).is_none() {
+    let (first, second) = (current + 1, nodes[current as usize].offset);
+    let (a, b) = (entry(first), entry(second));
+    let first_nearer = match (a, b) {
+        (Some(a), Some(b)) => a <= b,
+        (a, _) => a.is_some(),
+    };
+    let (near, far, near_entry, far_entry) =
+        if first_nearer { (first, second, a, b) } else { (second, first, b, a) };
+    let hit_near = near_entry.is_some_and(|e| entry_within(e, t_max));
+    let hit_far = far_entry.is_some_and(|e| entry_within(e, t_max));
+
+    // The cases, at the child's depth: not yet passed there, the ray overlaps both (go to
+    // the nearer, defer the farther), one (go to it, and mark the level passed and single)
+    // or neither (pop). If the one is the farther, whatever the trail held below the nearer
+    // is moot and cleared; on a restart that cannot happen unless a hit inside the nearer
+    // child came before its box's entry, which the entry margin of `entry_within` rules
+    // out, so no test reaches it: the clear keeps the trail right should rounding allow it. Passed and single: go to whichever child is overlapped now (at
+    // most the one that was). Passed, not single: the nearer is done; the farther if it is
+    // still overlapped. The kernel computes the same with selects.
+    let child = depth + 1;
+    let bit = trail_bit(child);
+    let passed = trail.passed & bit != 0;
+    let far_only = passed && trail.single & bit == 0;
+    let one_hit = hit_near != hit_far;
+    let new_level = !passed && one_hit;
+    let kept = if hit_far { trail_through(trail.passed, child) } else { trail.passed };
+    let next = if far_only || !hit_near { far } else { near };
+    let descend = if far_only { hit_far } else { hit_near || hit_far };
+    ChildStep {
+        next: descend.then_some(next),
+        deferred: (!passed && hit_near && hit_far).then_some(far),
+        trail: Trail {
+            passed: if new_level { kept | bit } else { trail.passed },
+            single: match (passed, one_hit) {
+                (true, _) => trail.single,
+                (false, true) => trail.single | bit,
+                (false, false) => trail.single & !bit,
+            },
+        },
+    }
+}
+/// Visits the leaves the ray may touch, nearer first; `visit` tests a leaf's triangles, may
+/// shorten `ray.t_max`, and returns `true` to stop. Keeps up to `stack_limit` (at most
+/// [`SHORT_STACK_SIZE`]) deferred children; 0 restarts from the root after every leaf.
+///
+/// The leaves come in the order a full stack would give, less those a nearer hit culls; a
+/// deferred child is not tested against the nearest hit again when it is taken up (the
+/// kernel keeps no entry distances: a second set of registers for a test that seldom
+/// prunes). So the result does not depend on `stack_limit` (tests/bvh.rs, tests/gpu.rs).
+pub fn traverse_with_short_stack(
+    nodes: &[BvhNode],
+    stack_limit: usize,
+    ray: &mut Ray,
+    mut visit: impl FnMut(u32, u32, &mut Ray) -> bool,
+) {
+    let pre = RayBoxPrecomp::new(ray);
+    let root = &nodes[0];
+    if box_entry(&pre, ray.t_max, Vec3::from(root.bounds_min), Vec3::from(root.bounds_max)).is_none() {
         return;
     }
-    let mut stack = [(0u32, 0.0f32); TRAVERSAL_STACK_SIZE];
+    let stack_limit = stack_limit.min(SHORT_STACK_SIZE);
+    // The latest deferral first, as the kernel shifts its registers.
+    let mut stack = [0u32; SHORT_STACK_SIZE];
     let mut sp = 0usize;
-    let mut current = 0u32;
+    let mut trail = Trail { passed: 0, single: 0 };
+    let (mut current, mut depth) = (0u32, 0u32);
     loop {
         let node = &nodes[current as usize];
         let count = node.triangle_count();
@@ -52,39 +177,44 @@ fn traverse(nodes: &[BvhNode], ray: &mut Ray, mut visit: impl FnMut(u32, u32, &m
                 return;
             }
         } else {
-            let (first, second) = (current + 1, node.offset);
-            match (entry(first, ray.t_max), entry(second, ray.t_max)) {
-                (Some(a), Some(b)) => {
-                    let (near, far, far_entry) = if a <= b { (first, second, b) } else { (second, first, a) };
-                    stack[sp] = (far, far_entry);
-                    sp += 1;
-                    current = near;
-                    continue;
+            let step = child_step(nodes, &pre, ray.t_max, current, depth, trail);
+            trail = step.trail;
+            if let Some(next) = step.next {
+                if let Some(far) = step.deferred {
+                    stack.copy_within(0..SHORT_STACK_SIZE - 1, 1);
+                    stack[0] = far;
+                    sp = (sp + 1).min(stack_limit);
                 }
-                (Some(_), None) => {
-                    current = first;
-                    continue;
-                }
-                (None, Some(_)) => {
-                    current = second;
-                    continue;
-                }
-                (None, None) => {}
+                current = next;
+                depth += 1;
+                continue;
             }
         }
-        // The next deferred child that may still hold a nearer hit.
-        loop {
-            if sp == 0 {
-                return;
-            }
+        // `current` is done, and with it every ancestor whose last child it was.
+        if depth == 0 {
+            return;
+        }
+        trail.passed = trail_pop(trail.passed, depth);
+        if trail.passed == 0 {
+            return;
+        }
+        depth = trail_depth(trail.passed);
+        if sp > 0 {
+            // The farther child deferred at `depth`: the latest deferral still pending.
+            current = stack[0];
+            stack.copy_within(1.., 0);
             sp -= 1;
-            let (node, node_entry) = stack[sp];
-            if entry_within(node_entry, ray.t_max) {
-                current = node;
-                break;
-            }
+        } else {
+            // Its deferral was dropped: down from the root again, along the trail.
+            current = 0;
+            depth = 0;
         }
     }
+}
+
+/// [`traverse_with_short_stack`] with the whole short stack: the kernel's traversal.
+fn traverse(nodes: &[BvhNode], ray: &mut Ray, visit: impl FnMut(u32, u32, &mut Ray) -> bool) {
+    traverse_with_short_stack(nodes, SHORT_STACK_SIZE, ray, visit)
 }
 
 /// A tree the intersection queries can walk: the flat binary [`BvhNode`] array (the GPU's

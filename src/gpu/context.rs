@@ -96,7 +96,7 @@ pub struct GpuContext {
     module: wgpu::ShaderModule,
     /// Errors wgpu reported outside any error scope (kept, then returned by `check`).
     uncaptured: Arc<Mutex<Vec<String>>>,
-    /// By the scene features, splitting and the register stack limit they were built for.
+    /// By the scene features, splitting and the short-stack limit they were built for.
     kernels: Mutex<HashMap<(SceneFeatures, bool, u32), Arc<Kernel>>>,
     /// The light tracer's kernels (`trace_caustics`), by the scene features they were
     /// built for: built only for scenes whose caustics are light traced.
@@ -107,10 +107,6 @@ pub struct GpuContext {
 fn feature_constants(features: SceneFeatures) -> Vec<(&'static str, f64)> {
     features.pipeline_constants().iter().map(|(name, on)| (*name, if *on { 1.0 } else { 0.0 })).collect()
 }
-
-/// Deferred children the traversal keeps in registers before it starts over with its array
-/// stack (`traverse` in shaders/bvh.wgsl, which explains why; checked against the WGSL).
-pub const REGISTER_STACK_SIZE: u32 = 8;
 
 impl GpuContext {
     /// Opens the best Vulkan adapter, or the first whose name contains `device_filter`
@@ -229,13 +225,13 @@ impl GpuContext {
     /// The kernels specialised to `features`, able to split samples if `splitting`, built on
     /// first use and cached.
     pub fn kernel(&self, features: SceneFeatures, splitting: bool) -> Result<Arc<Kernel>> {
-        self.kernel_with_register_stack_limit(features, splitting, REGISTER_STACK_SIZE)
+        self.kernel_with_short_stack_limit(features, splitting, crate::bvh::SHORT_STACK_SIZE as u32)
     }
 
-    /// [`GpuContext::kernel`] whose traversal falls back from its register stack to the
-    /// array stack after `limit` deferred children instead of [`REGISTER_STACK_SIZE`]
-    /// (`traverse` in shaders/bvh.wgsl); the image must not depend on it (tests).
-    pub fn kernel_with_register_stack_limit(
+    /// [`GpuContext::kernel`] whose traversal keeps `limit` deferred children instead of
+    /// [`crate::bvh::SHORT_STACK_SIZE`] and restarts from the root more often (`traverse` in
+    /// shaders/bvh.wgsl); the image must not depend on it (tests).
+    pub fn kernel_with_short_stack_limit(
         &self,
         features: SceneFeatures,
         splitting: bool,
@@ -246,7 +242,7 @@ impl GpuContext {
             return Ok(k.clone());
         }
         let mut constants = feature_constants(features);
-        constants.push(("REGISTER_STACK_LIMIT", limit as f64));
+        constants.push(("SHORT_STACK_LIMIT", limit as f64));
         constants.push(("SPLITTING", if splitting { 1.0 } else { 0.0 }));
         let (render, build_seconds) = self.build_pipeline("render", &constants)?;
         let (first_hit, _) = self.build_pipeline("first_hit", &constants)?;

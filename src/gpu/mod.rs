@@ -6,7 +6,5 @@ pub mod context;
 mod renderer;
 pub mod shader;
 
-pub use context::{
-    describe_adapter, enumerate_adapters, hardware_adapter, GpuContext, Kernel, REGISTER_STACK_SIZE,
-};
+pub use context::{describe_adapter, enumerate_adapters, hardware_adapter, GpuContext, Kernel};
 pub use renderer::GpuBackend;

@@ -34,6 +34,10 @@ pub struct SceneFeatures {
     pub clearcoat: bool,
     /// Some material has a sheen (KHR_materials_sheen colour not black).
     pub sheen: bool,
+    /// The BVH has nodes more than 32 levels below its root, so the kernel's restart trail
+    /// needs its second 32-bit word (`traverse` in shaders/bvh.wgsl): 5% of lavapipe's
+    /// render time on the bunny in the Cornell box when kept where it is not needed.
+    pub deep_tree: bool,
 }
 
 impl SceneFeatures {
@@ -52,6 +56,7 @@ impl SceneFeatures {
         alpha: true,
         clearcoat: true,
         sheen: true,
+        deep_tree: true,
     };
 
     /// The features of `materials[i]` for every `i` in `used_materials`, and of `lights`.
@@ -87,7 +92,7 @@ impl SceneFeatures {
     }
 
     /// `(WGSL override name, value)` for each feature, as the kernel declares them.
-    pub fn pipeline_constants(&self) -> [(&'static str, bool); 13] {
+    pub fn pipeline_constants(&self) -> [(&'static str, bool); 14] {
         [
             ("FEATURE_SPECULAR", self.specular),
             ("FEATURE_TRANSMISSION", self.transmission),
@@ -102,6 +107,7 @@ impl SceneFeatures {
             ("FEATURE_ALPHA", self.alpha),
             ("FEATURE_CLEARCOAT", self.clearcoat),
             ("FEATURE_SHEEN", self.sheen),
+            ("FEATURE_DEEP_TREE", self.deep_tree),
         ]
     }
 

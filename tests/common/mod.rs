@@ -201,3 +201,96 @@ pub fn png_data_uri(width: u32, height: u32, rgba: &[u8]) -> String {
     }
     format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes))
 }
+
+/// Squares of side 1.5^i in the planes x = 1.5^i, i < 60, spanning (y, z) ≥ 0: as one
+/// triangle each (the lower-left half, `pairs` false) or as two, in order of distance.
+pub fn deep_row(pairs: bool) -> Vec<pathlight::scene::layout::Triangle> {
+    use pathlight::scene::layout::Triangle;
+    let triangle = |p0: [f32; 3], p1: [f32; 3], p2: [f32; 3]| Triangle { p0, p1, p2, ..Default::default() };
+    (0..60)
+        .flat_map(|i| {
+            let s = 1.5f32.powi(i);
+            let lower = triangle([s, 0.0, 0.0], [s, s, 0.0], [s, 0.0, s]);
+            let upper = triangle([s, s, 0.0], [s, s, s], [s, 0.0, s]);
+            if pairs {
+                vec![lower, upper]
+            } else {
+                vec![lower]
+            }
+        })
+        .collect()
+}
+
+/// A BVH as deep as a tree over `triangles` can be: the triangles in groups of `group` (1 or
+/// 2) consecutive ones, and node k of the chain over groups 0 ..= m − 1 − k (m groups), its
+/// first child the next such node and its second group m − 1 − k: a leaf, or a node whose
+/// two leaves hold the pair. Group 0 lies deepest, at depth m − 1 (plus 1 for pairs) below
+/// the root. Built by hand, so that traversal is tested far deeper than the builder's trees
+/// of real scenes go (a builder change cannot make such a test lose its point).
+pub fn chain_tree(
+    triangles: &[pathlight::scene::layout::Triangle],
+    group: usize,
+) -> Vec<pathlight::scene::layout::BvhNode> {
+    use pathlight::scene::layout::BvhNode;
+    assert!((group == 1 || group == 2) && triangles.len() % group == 0);
+    let bounds = |range: std::ops::Range<usize>| {
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for t in &triangles[range] {
+            for p in [t.p0, t.p1, t.p2] {
+                lo = lo.min(Vec3::from(p));
+                hi = hi.max(Vec3::from(p));
+            }
+        }
+        (lo.to_array(), hi.to_array())
+    };
+    // An interior node over `range`, its second child set once that child's place is known.
+    let interior = |range: std::ops::Range<usize>| {
+        let (lo, hi) = bounds(range);
+        BvhNode { bounds_min: lo, offset: 0, bounds_max: hi, count_axis: 0 }
+    };
+    let leaf = |i: usize| {
+        let (lo, hi) = bounds(i..i + 1);
+        BvhNode { bounds_min: lo, offset: i as u32, bounds_max: hi, count_axis: 1 }
+    };
+    let emit_group = |nodes: &mut Vec<BvhNode>, g: usize| {
+        if group == 1 {
+            nodes.push(leaf(g));
+        } else {
+            let at = nodes.len();
+            nodes.push(interior(2 * g..2 * g + 2));
+            nodes.push(leaf(2 * g));
+            nodes[at].offset = nodes.len() as u32;
+            nodes.push(leaf(2 * g + 1));
+        }
+    };
+    // Depth-first: the chain's nodes, then the deepest group, then the others coming back up.
+    let groups = triangles.len() / group;
+    let mut nodes = Vec::with_capacity(4 * groups);
+    for k in 0..groups - 1 {
+        nodes.push(interior(0..(groups - k) * group));
+    }
+    emit_group(&mut nodes, 0);
+    for k in (0..groups - 1).rev() {
+        nodes[k].offset = nodes.len() as u32;
+        emit_group(&mut nodes, groups - 1 - k);
+    }
+    nodes
+}
+
+/// The depth (root 0) of the leaf holding each triangle.
+pub fn leaf_depths(nodes: &[pathlight::scene::layout::BvhNode]) -> Vec<u32> {
+    let mut depths = Vec::new();
+    let mut stack = vec![(0usize, 0u32)];
+    while let Some((i, depth)) = stack.pop() {
+        let node = &nodes[i];
+        if node.triangle_count() > 0 {
+            let end = (node.offset + node.triangle_count()) as usize;
+            depths.resize(depths.len().max(end), 0);
+            depths[node.offset as usize..end].fill(depth);
+        } else {
+            stack.push((i + 1, depth + 1));
+            stack.push((node.offset as usize, depth + 1));
+        }
+    }
+    depths
+}
