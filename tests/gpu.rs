@@ -740,3 +740,113 @@ fn restart_trail_is_exact_past_depth_32() {
         );
     }
 }
+
+#[test]
+fn restart_trail_arithmetic_matches_its_twin() {
+    // The kernel keeps the 64-bit restart trail as two 32-bit words (shaders/bvh.wgsl); its
+    // bit, clear, add-with-carry and lowest-set-bit helpers must give what the CPU twin's
+    // u64 operations give (pathlight::bvh::trail), at every depth and across the words.
+    use pathlight::bvh::trail::{trail_bit, trail_depth, trail_pop, trail_through};
+    use wgpu::util::DeviceExt;
+    let Some(ctx) = common::gpu() else { return };
+    let mut rng = pathlight::sampling::Rng::new(7, 7, 7, 7);
+    let mut random_u64 = || {
+        let word = |r: &mut pathlight::sampling::Rng| (r.next_1d() * 4294967296.0) as u64;
+        (word(&mut rng) << 32) | word(&mut rng)
+    };
+    // Trails dense and sparse, with runs of ones across the words (long carries), at each depth.
+    let mut cases: Vec<(u64, u32)> = Vec::new();
+    for depth in 1..=64u32 {
+        let ones_below = |n: u32| if n >= 64 { !0u64 } else { (1u64 << n) - 1 };
+        for trail in [0, !0, 1 << 32, 1 << 31, ones_below(40) << 8, !ones_below(30), ones_below(33)] {
+            cases.push((trail, depth));
+        }
+        for _ in 0..16 {
+            let (a, b) = (random_u64(), random_u64());
+            cases.extend([(a, depth), (a & b, depth), (a | b, depth)]);
+        }
+    }
+    let input: Vec<[u32; 4]> = cases.iter().map(|&(t, d)| [(t >> 32) as u32, t as u32, d, 0]).collect();
+    let bvh_files =
+        pathlight::gpu::shader::SHADER_FILES.iter().position(|(name, _)| *name == "bvh.wgsl").unwrap() + 1;
+    let source = pathlight::gpu::shader::compose(bvh_files)
+        + r#"
+@group(0) @binding(100) var<storage, read> trail_cases: array<vec4<u32>>;
+@group(0) @binding(101) var<storage, read_write> trail_results: array<vec4<u32>>;
+
+@compute @workgroup_size(64)
+fn test_trail(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&trail_cases)) {
+        return;
+    }
+    let trail = trail_cases[i].xy;
+    let depth = trail_cases[i].z;
+    let lowest = select(trail_depth(trail), 0u, trail_is_empty(trail));
+    trail_results[2u * i] = vec4<u32>(trail_pop(trail, depth), trail_through(trail, depth));
+    trail_results[2u * i + 1u] = vec4<u32>(trail_bit(depth), lowest, u32(trail_has(trail, depth)));
+}
+"#;
+    let device = &ctx.device;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("trail test"),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("trail test"),
+        layout: None,
+        module: &module,
+        entry_point: Some("test_trail"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let cases_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("trail cases"),
+        contents: bytemuck::cast_slice(&input),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let size = (input.len() * 2 * 16) as u64;
+    let results = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("trail results"),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("trail readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("trail test"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 100, resource: cases_buffer.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 101, resource: results.as_entire_binding() },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups((input.len() as u32).div_ceil(64), 1, 1);
+    }
+    encoder.copy_buffer_to_buffer(&results, 0, &staging, 0, size);
+    ctx.queue.submit([encoder.finish()]);
+    staging.slice(..).map_async(wgpu::MapMode::Read, |r| r.unwrap());
+    device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+    let out: Vec<[u32; 4]> = bytemuck::cast_slice(&staging.slice(..).get_mapped_range().unwrap()).to_vec();
+    let join = |high: u32, low: u32| ((high as u64) << 32) | low as u64;
+    for (i, &(trail, depth)) in cases.iter().enumerate() {
+        let (a, b) = (out[2 * i], out[2 * i + 1]);
+        let what = format!("trail {trail:#018x}, depth {depth}");
+        assert_eq!(join(a[0], a[1]), trail_pop(trail, depth), "{what}: trail_pop");
+        assert_eq!(join(a[2], a[3]), trail_through(trail, depth), "{what}: trail_through");
+        assert_eq!(join(b[0], b[1]), trail_bit(depth), "{what}: trail_bit");
+        let lowest = if trail == 0 { 0 } else { trail_depth(trail) };
+        assert_eq!(b[2], lowest, "{what}: trail_depth");
+        assert_eq!(b[3] != 0, trail & trail_bit(depth) != 0, "{what}: trail_has");
+    }
+}

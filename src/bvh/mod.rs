@@ -6,6 +6,7 @@
 
 mod build;
 mod lanes;
+pub mod trail;
 mod traverse;
 mod wide;
 

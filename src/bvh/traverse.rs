@@ -10,7 +10,7 @@ use crate::geometry::{
 };
 use crate::scene::layout::{BvhNode, Triangle};
 
-use super::build::MAX_DEPTH;
+use super::trail::{trail_bit, trail_depth, trail_pop, trail_through};
 use super::wide::{traverse_wide, WideBvh};
 
 /// Deferred children the traversal keeps (its short stack). Deeper deferrals drop the
@@ -18,38 +18,6 @@ use super::wide::{traverse_wide, WideBvh};
 /// trail back. The GPU holds these in two `vec4<u32>` registers: lavapipe writes a private
 /// array lane by lane and its mere presence cost more than its writes (bench/RESULTS.md).
 pub const SHORT_STACK_SIZE: usize = 8;
-
-// The trail holds one bit per depth below the root: MAX_DEPTH counts the root as depth 1, so
-// the deepest child is at depth MAX_DEPTH − 1 here, where the root is depth 0.
-const _: () = assert!(MAX_DEPTH - 1 <= 64, "the restart trail is 64 bits");
-
-/// The trail's bit for depth `depth` (1 ..= 64): bit 64 − depth, so that deeper levels are
-/// less significant and marking a node done is one addition, whose carry moves up past the
-/// levels that are finished too (Laine 2010 §3).
-#[inline(always)]
-fn trail_bit(depth: u32) -> u64 {
-    1u64 << (64 - depth)
-}
-
-/// `trail`'s bits for depths 1 ..= `depth` (1 ..= 64).
-#[inline(always)]
-fn trail_through(trail: u64, depth: u32) -> u64 {
-    trail & (!0u64 << (64 - depth))
-}
-
-/// The trail once the node at `depth` (≥ 1) is done: its deeper bits cleared and its own
-/// bit added, carrying into its ancestors whose last child it was. Zero when the carry
-/// leaves the top: the whole tree is done.
-#[inline(always)]
-fn trail_pop(trail: u64, depth: u32) -> u64 {
-    trail_through(trail, depth).wrapping_add(trail_bit(depth))
-}
-
-/// The depth of `trail`'s lowest set bit (`trail` ≠ 0): where traversal goes on after a pop.
-#[inline(always)]
-fn trail_depth(trail: u64) -> u32 {
-    64 - trail.trailing_zeros()
-}
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ClosestHit {
