@@ -32,10 +32,10 @@ fn vertices(t: &Triangle) -> (Vec3, Vec3, Vec3) {
 
 /// The per-ray state of [`traverse_with_short_stack`] besides the node.
 ///
-/// At each depth d on the path from the root to the current node, bit d of `passed` says the
-/// traversal is in the last child it will visit at that depth: the farther of two children
-/// (the nearer one done), or the only one of them the ray overlapped, which bit d of `single`
-/// marks. A clear `passed` bit means the nearer of two: the farther waits on the short stack
+/// At each depth d on the path from the root to the current node, d's bit of `passed`
+/// ([`trail_bit`]) says the traversal is in the last child it will visit at that depth: the
+/// farther of two children (the nearer one done), or the only one of them the ray
+/// overlapped, which d's bit of `single` marks. A clear `passed` bit means the nearer of two: the farther waits on the short stack
 /// (or was dropped from it). After a restart the traversal descends from the root following
 /// these bits. `single` is what keeps a restart exact: with `passed` alone, a level whose
 /// farther child a nearer hit has culled since (its nearer child done) would read the same as
