@@ -4,7 +4,6 @@
 
 mod common;
 
-use base64::Engine;
 use glam::Vec3;
 use pathlight::cpu::CpuBackend;
 use pathlight::geometry::Ray;
@@ -96,7 +95,7 @@ fn alpha_scene(camera: usize, aspect: f64) -> FlatScene {
             {"buffer": 0, "byteOffset": 144, "byteLength": 96},
             {"buffer": 0, "byteOffset": 240, "byteLength": 24}
         ],
-        "buffers": [{"byteLength": bin.len(), "uri": format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bin))}]
+        "buffers": [{"byteLength": bin.len(), "uri": common::buffer_data_uri(&bin)}]
     });
     let path = std::env::temp_dir().join(format!("pathlight-alpha-{}.gltf", std::process::id()));
     std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();

@@ -453,11 +453,20 @@ fn png_data_uri() -> String {
     common::png_data_uri(4, 3, &rgba)
 }
 
+/// A glTF document built by a test (buffers and images as data URIs), loaded and flattened
+/// with the camera it has, or the default one.
+fn flat_scene_from_gltf(name: &str, doc: &serde_json::Value) -> pathlight::scene::FlatScene {
+    let bytes = serde_json::to_vec(doc).unwrap();
+    let options = pathlight::scene::LoadOptions::default();
+    let (scene, _) = pathlight::scene::load_from_bytes(&bytes, std::path::Path::new(name), &options).unwrap();
+    let view = pathlight::scene::ViewSettings { camera: None, aspect: 1.0 };
+    pathlight::scene::FlatScene::build(&scene, &view).unwrap()
+}
+
 /// Three textured quads side by side, each with another sampler: REPEAT + bilinear,
 /// CLAMP_TO_EDGE + nearest, MIRRORED_REPEAT + bilinear reading UV set 1 through a
 /// KHR_texture_transform. UVs run well outside [0, 1] so every wrap mode is exercised.
 fn wrap_mode_scene() -> pathlight::scene::FlatScene {
-    use base64::Engine;
     use serde_json::json;
     let mut positions: Vec<f32> = Vec::new();
     let mut uv0: Vec<f32> = Vec::new();
@@ -518,14 +527,9 @@ fn wrap_mode_scene() -> pathlight::scene::FlatScene {
             {"buffer": 0, "byteOffset": np + nuv, "byteLength": nuv},
             {"buffer": 0, "byteOffset": np + 2 * nuv, "byteLength": indices.len() * 4}
         ],
-        "buffers": [{"byteLength": bin.len(), "uri": format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bin))}]
+        "buffers": [{"byteLength": bin.len(), "uri": common::buffer_data_uri(&bin)}]
     });
-    let path = std::env::temp_dir().join(format!("pathlight-wrap-{}.gltf", std::process::id()));
-    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-    let (scene, _) = pathlight::scene::load(&path).unwrap();
-    let _ = std::fs::remove_file(&path);
-    pathlight::scene::FlatScene::build(&scene, &pathlight::scene::ViewSettings { camera: None, aspect: 1.0 })
-        .unwrap()
+    flat_scene_from_gltf("wrap-modes.gltf", &doc)
 }
 
 /// Textured scenes: the wrap-mode scene, and the Khronos models (when the assets are there).
@@ -646,7 +650,6 @@ fn short_stack_size_does_not_change_the_image() {
 /// the deepest tree there is over it (`common::chain_tree`) instead of the builder's. The
 /// camera's rays pass beside the squares smaller than about 2·offset and hit the next.
 fn deep_chain_scene(pairs: bool, offset: f32) -> pathlight::scene::FlatScene {
-    use base64::Engine;
     use serde_json::json;
     let row = common::deep_row(pairs);
     let mut bin: Vec<u8> = Vec::new();
@@ -665,14 +668,9 @@ fn deep_chain_scene(pairs: bool, offset: f32) -> pathlight::scene::FlatScene {
         "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
         "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3 * row.len(), "type": "VEC3", "min": [1.0, 0.0, 0.0], "max": [extent, extent, extent]}],
         "bufferViews": [{"buffer": 0, "byteLength": bin.len()}],
-        "buffers": [{"byteLength": bin.len(), "uri": format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bin))}]
+        "buffers": [{"byteLength": bin.len(), "uri": common::buffer_data_uri(&bin)}]
     });
-    let path = std::env::temp_dir().join(format!("pathlight-deep-chain-{}.gltf", std::process::id()));
-    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-    let (loaded, _) = pathlight::scene::load(&path).unwrap();
-    let _ = std::fs::remove_file(&path);
-    let view = pathlight::scene::ViewSettings { camera: None, aspect: 1.0 };
-    let mut scene = pathlight::scene::FlatScene::build(&loaded, &view).unwrap();
+    let mut scene = flat_scene_from_gltf("deep-chain.gltf", &doc);
     assert!(scene.texcoords.is_empty() && scene.tangents.is_empty());
     // Back in the row's order (nearest first, a square's lower half first: its p1 has the
     // lesser z), then the chain over it.

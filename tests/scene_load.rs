@@ -4,7 +4,6 @@ mod common;
 
 use std::path::Path;
 
-use base64::Engine;
 use glam::Vec3;
 use pathlight::scene::{load, load_from_bytes, FlatScene, LoadOptions, ViewSettings};
 use serde_json::{json, Value};
@@ -28,7 +27,7 @@ fn doc(positions: &[[f32; 3]], indices: &[u32], patch: impl FnOnce(&mut Value)) 
             {"buffer": 0, "byteOffset": 0, "byteLength": pos_len},
             {"buffer": 0, "byteOffset": pos_len, "byteLength": bytes.len() - pos_len}
         ],
-        "buffers": [{"byteLength": bytes.len(), "uri": format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bytes))}]
+        "buffers": [{"byteLength": bytes.len(), "uri": common::buffer_data_uri(&bytes)}]
     });
     patch(&mut v);
     serde_json::to_vec(&v).unwrap()

@@ -130,13 +130,7 @@ fn uris_leaving_the_scene_folder_are_refused() {
 #[test]
 fn legitimate_uris_keep_working() {
     let root = layout("legitimate");
-    let data = {
-        use base64::Engine;
-        format!(
-            "data:application/octet-stream;base64,{}",
-            base64::engine::general_purpose::STANDARD.encode(triangle_bytes(0.75))
-        )
-    };
+    let data = common::buffer_data_uri(&triangle_bytes(0.75));
     for (uri, x) in [
         ("inside.bin", 0.0),
         ("./inside.bin", 0.0),

@@ -188,6 +188,12 @@ pub fn gpu() -> Option<std::sync::Arc<pathlight::gpu::GpuContext>> {
     }
 }
 
+/// A glTF buffer's bytes as a data URI.
+pub fn buffer_data_uri(bin: &[u8]) -> String {
+    use base64::Engine;
+    format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(bin))
+}
+
 /// An 8-bit RGBA image as a PNG `data:` URI (for glTF documents built inside tests).
 pub fn png_data_uri(width: u32, height: u32, rgba: &[u8]) -> String {
     use base64::Engine;
