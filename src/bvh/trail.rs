@@ -36,3 +36,10 @@ pub fn trail_pop(trail: u64, depth: u32) -> u64 {
 pub fn trail_depth(trail: u64) -> u32 {
     64 - trail.trailing_zeros()
 }
+
+/// Does a tree `max_depth` levels deep (the root counted as 1, as [`super::BvhStats`] counts)
+/// need the trail's second 32-bit word in the kernel (`FEATURE_DEEP_TREE`)? The first holds
+/// depths 1 ..= 32 below the root, and the deepest child lies at `max_depth − 1`.
+pub fn needs_second_word(max_depth: usize) -> bool {
+    max_depth.saturating_sub(1) > 32
+}

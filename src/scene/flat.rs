@@ -275,8 +275,7 @@ impl FlatScene {
         features.environment = environment.params.present != 0;
         features.textures = any_textured;
         features.normal_maps = triangles.iter().any(|t| t.flags & TRIANGLE_HAS_TANGENTS != 0);
-        // `max_depth` counts the root as depth 1.
-        features.deep_tree = bvh.stats.max_depth > 33;
+        features.deep_tree = crate::bvh::trail::needs_second_word(bvh.stats.max_depth);
         Ok(FlatScene {
             camera: camera_desc.to_gpu(view.aspect),
             wide_bvh: crate::bvh::WideBvh::collapse(&bvh.nodes),
