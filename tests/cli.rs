@@ -64,6 +64,16 @@ fn renders_cornell_box_to_exr_and_png() {
     // The CPU backend's default splitting, recorded: `spp` counts camera samples.
     assert_eq!(image.attributes["pathlight.splits"], pathlight::render::CPU_DEFAULT_SPLITS.to_string());
     assert!(image.attributes["pathlight.renderSeconds"].parse::<f64>().unwrap() > 0.0);
+    // The image's own predicted relMSE, from the Sobol sampler's two replicates. The variance
+    // channels hold the samples' spread, which under QMC over-states the error of the mean:
+    // the relMSE they predict bounds the recorded one from above.
+    let recorded: f64 = image.attributes[pathlight::film::PREDICTED_RELMSE_ATTRIBUTE].parse().unwrap();
+    let from_channels =
+        pathlight::film::predicted_relmse(&pathlight::film::LinearImage::read(&exr).unwrap()).unwrap();
+    assert!(
+        recorded > 0.0 && recorded < from_channels,
+        "recorded {recorded}, from the channels {from_channels}"
+    );
 
     let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
     let mut reader = decoder.read_info().unwrap();
