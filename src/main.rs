@@ -127,8 +127,10 @@ struct BenchArgs {
     /// Seconds each renderer's error series runs for, per scene.
     #[arg(long, default_value_t = 60.0)]
     peer_seconds: f64,
-    /// Samples per pixel of a reference rendered in this run (OUT/<scene>/reference.exr is
-    /// reused when present; render it on a fast GPU with --references-only).
+    /// Samples per pixel of a reference rendered in this run, with the backend's default
+    /// splitting and light tracing (OUT/<scene>/reference.exr is reused when present; render
+    /// it on a fast GPU with --references-only). Give it about ten times the series' time:
+    /// the summary says how noisy it is.
     #[arg(long, default_value_t = 4096)]
     reference_spp: u32,
     /// With --peer: only render the missing references, then stop.
@@ -486,8 +488,8 @@ fn run_peer_bench(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) ->
     if args.references_only {
         for scene in &scenes {
             let flat = peer::flat_scene(scene, &options)?;
-            let (_, note) = peer::reference(scene, &flat, &options)?;
-            out!("{}: {note}", scene.name);
+            let reference = peer::reference(scene, &flat, &options)?;
+            out!("{}: {}", scene.name, reference.note);
         }
         return Ok(());
     }

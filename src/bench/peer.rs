@@ -29,7 +29,8 @@ use super::BenchScene;
 use crate::cpu::CpuBackend;
 use crate::error::{Error, Result};
 use crate::film::{
-    compare_images, error_against, CompareOptions, CompareReport, LinearImage, RenderMetadata,
+    compare_images, error_against, predicted_relmse, CompareOptions, CompareReport, LinearImage,
+    RenderMetadata,
 };
 use crate::gpu::{GpuBackend, GpuContext};
 use crate::sampling::SamplerKind;
@@ -125,6 +126,7 @@ fn log_lerp(x0: f64, y0: f64, x1: f64, y1: f64, x: f64) -> f64 {
 pub struct PeerResult {
     pub scene: String,
     pub reference_note: String,
+    pub reference_noise: Option<ReferenceNoise>,
     pub pathlight: Vec<Series>,
     /// The peer's series (`None` with `run_peer` off), with its default sampler.
     pub peer: Option<Series>,
@@ -147,12 +149,56 @@ fn reference_backend(
     })
 }
 
+/// A scene's reference image, what it is, and how noisy it is.
+pub struct Reference {
+    pub image: LinearImage,
+    /// Its file, samples per pixel and backend, for the report.
+    pub note: String,
+    /// Its own error (`None` for a file with neither the recorded figure nor variance).
+    pub noise: Option<ReferenceNoise>,
+}
+
+/// A reference's own relMSE: the floor under every error measured against it. A noise common
+/// to both renderers adds the same term to both series and leaves time to equal error
+/// unchanged in expectation, but near it the series bend off the straight lines the times are
+/// read on, and any series with a floor of its own (a biased peer) bends sooner. The eleventh
+/// and twelfth runs' 4,096-spp Cornell-box reference held 2.9·10⁻⁵, a quarter of the error
+/// compared (bench/RESULTS.md, twenty-first session).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReferenceNoise {
+    pub relmse: f64,
+    /// Measured (the render's two replicates, or the figure its file records), or only
+    /// bounded from above by the file's variance channels, which under QMC hold the samples'
+    /// spread, not the error of their mean.
+    pub measured: bool,
+}
+
+impl ReferenceNoise {
+    /// What a reference file says of its noise: the predicted relMSE it records
+    /// ([`crate::film::PREDICTED_RELMSE_ATTRIBUTE`]), else the one its variance channels
+    /// give (an upper bound for a QMC render, exact for independent samples).
+    fn of_file(image: &LinearImage, attributes: &std::collections::HashMap<String, String>) -> Option<Self> {
+        let recorded =
+            attributes.get(crate::film::PREDICTED_RELMSE_ATTRIBUTE).and_then(|v| v.parse::<f64>().ok());
+        match recorded {
+            Some(relmse) if relmse.is_finite() && relmse >= 0.0 => {
+                Some(ReferenceNoise { relmse, measured: true })
+            }
+            _ => predicted_relmse(image).map(|relmse| ReferenceNoise { relmse, measured: false }),
+        }
+    }
+
+    fn describe(&self) -> &'static str {
+        if self.measured {
+            "measured"
+        } else {
+            "an upper bound from the file's variance channels"
+        }
+    }
+}
+
 /// Renders (or reuses) `OUT/<scene>/reference.exr`.
-pub fn reference(
-    scene: &BenchScene,
-    flat: &Arc<FlatScene>,
-    options: &PeerOptions,
-) -> Result<(LinearImage, String)> {
+pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOptions) -> Result<Reference> {
     let dir = options.out.join(&scene.name);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     let path = dir.join("reference.exr");
@@ -160,17 +206,28 @@ pub fn reference(
         let image = LinearImage::read(&path)?;
         if (image.width, image.height) == (options.width as usize, options.height as usize) {
             let spp = image.spp.map_or("?".into(), |n| n.to_string());
-            let backend = crate::film::read_exr(&path)?.attributes.remove("pathlight.backend");
-            let backend = backend.unwrap_or_else(|| "?".into());
-            return Ok((image, format!("{} ({spp} spp, {backend}, reused)", path.display())));
+            let attributes = crate::film::read_exr(&path)?.attributes;
+            let backend = attributes.get("pathlight.backend").cloned().unwrap_or_else(|| "?".into());
+            let noise = ReferenceNoise::of_file(&image, &attributes);
+            let note = format!("{} ({spp} spp, {backend}, reused)", path.display());
+            return Ok(Reference { image, note, noise });
         }
     }
-    // Its own seed, so the reference is independent of every timed render.
+    // Its own seed, so the reference is independent of every timed render. Rendered as
+    // `pathlight render` renders by default, with the backend's splitting and caustics by
+    // light tracing, each chosen for the least error in the time (light tracing lowered the
+    // glass scene's several-fold, bench/RESULTS.md); until the twenty-first session it was
+    // path-traced and unsplit. Each camera sample then costs more, so one spp of reference
+    // is worth more. Whether the estimators converge to the right image is for the z-test
+    // against the peer's to say.
+    let hardware_gpu = options.gpu.as_ref().is_some_and(|ctx| ctx.is_hardware());
     let settings = RenderSettings {
         width: options.width,
         height: options.height,
         spp: options.reference_spp,
         seed: 0x5EED_0001,
+        splits: crate::render::default_splits(hardware_gpu),
+        light_tracing: true,
         ..RenderSettings::default()
     };
     let mut backend = reference_backend(flat, &settings, options.gpu.as_ref())?;
@@ -191,10 +248,11 @@ pub fn reference(
         rejected_samples: 0,
     };
     crate::film::write_exr(&film, &meta, &path)?;
-    Ok((
-        LinearImage::from_film(&film),
-        format!("{} ({} spp, {}, {seconds:.0} s)", path.display(), settings.spp, backend.name()),
-    ))
+    let image = LinearImage::from_film(&film);
+    // A render's own image knows its replicates: the measured figure.
+    let noise = predicted_relmse(&image).map(|relmse| ReferenceNoise { relmse, measured: true });
+    let note = format!("{} ({} spp, {}, {seconds:.0} s)", path.display(), settings.spp, backend.name());
+    Ok(Reference { image, note, noise })
 }
 
 /// One progressive pathlight render against the reference until `seconds` have passed.
@@ -368,7 +426,8 @@ fn backend_series(
 /// Measures one scene: reference, pathlight's series on each backend, the peer's.
 pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult> {
     let flat = flat_scene(scene, options)?;
-    let (reference, reference_note) = reference(scene, &flat, options)?;
+    let Reference { image: reference, note: reference_note, noise: reference_noise } =
+        reference(scene, &flat, options)?;
     // Each backend as `pathlight render` runs it, with its default splitting.
     let settings = RenderSettings {
         width: options.width,
@@ -421,6 +480,7 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
     Ok(PeerResult {
         scene: scene.name.clone(),
         reference_note,
+        reference_noise,
         pathlight,
         peer,
         peer_low_discrepancy,
@@ -441,11 +501,12 @@ pub fn markdown(results: &[PeerResult]) -> String {
         };
         for p in &r.pathlight {
             // Pairwise with the peer: the lower error both series reached, the shorter time.
-            let pair = [p].into_iter().chain(&r.peer);
-            let error =
-                pair.clone().map(|s| s.last().map(|l| l.0)).try_fold(0.0f64, |m, e| e.map(|e| m.max(e)));
-            let time =
-                pair.map(|s| s.last().map(|l| l.1)).try_fold(f64::INFINITY, |m, t| t.map(|t| m.min(t)));
+            let error = compared_error(p, r.peer.as_ref());
+            let time = [p]
+                .into_iter()
+                .chain(&r.peer)
+                .map(|s| s.last().map(|l| l.1))
+                .try_fold(f64::INFINITY, |m, t| t.map(|t| m.min(t)));
             let t_pl = error.and_then(|e| p.time_to_error(e));
             let t_mi = error.zip(r.peer.as_ref()).and_then(|(e, peer)| peer.time_to_error(e));
             let e_pl = time.and_then(|t| p.error_at_time(t));
@@ -477,6 +538,7 @@ pub fn markdown(results: &[PeerResult]) -> String {
             );
         }
     }
+    s += &reference_noise_lines(results);
     s
 }
 
@@ -486,6 +548,54 @@ fn speed_ratio(a: &Series, b: &Series) -> Option<f64> {
     let error = a.last()?.0.max(b.last()?.0);
     Some(b.time_to_error(error)? / a.time_to_error(error)?)
 }
+
+/// The error a row reads time to equal error at: the larger of the last errors of the
+/// pathlight series and the peer's, the lowest both reached (`None` if either is empty).
+fn compared_error(pathlight: &Series, peer: Option<&Series>) -> Option<f64> {
+    [pathlight]
+        .into_iter()
+        .chain(peer)
+        .map(|s| s.last().map(|l| l.0))
+        .try_fold(0.0f64, |m, e| e.map(|e| m.max(e)))
+}
+
+/// Under the table, a line per scene on its reference's own error against the smallest
+/// error compared (what each row's time to equal error is read at), with a warning where
+/// the reference's noise is more than a tenth of it ([`ReferenceNoise`]).
+fn reference_noise_lines(results: &[PeerResult]) -> String {
+    let mut s = String::new();
+    for r in results {
+        let Some(noise) = r.reference_noise else { continue };
+        let compared = r
+            .pathlight
+            .iter()
+            .filter_map(|p| compared_error(p, r.peer.as_ref()))
+            .fold(f64::INFINITY, f64::min);
+        s += &format!(
+            "\n{}: the reference's own relMSE is {:.2e} ({})",
+            r.scene,
+            noise.relmse,
+            noise.describe()
+        );
+        if compared.is_finite() && compared > 0.0 {
+            let share = noise.relmse / compared;
+            s += &format!(", {:.1}% of the smallest relMSE compared", 100.0 * share);
+            if share > REFERENCE_NOISE_WARNING {
+                s += ". **More than a tenth: the ratios read near it are uncertain; render a longer \
+                      reference (`--reference-spp`).**";
+            }
+        }
+        s += "\n";
+    }
+    s
+}
+
+/// The share of the compared error above which a reference's noise is called out. For
+/// series of the form a/t + R read where R is this share of the error, the log–log slope is
+/// −0.9 instead of −1, and a time read between checkpoints 4× apart (Mitsuba's `ldsampler`
+/// series) comes out 2.5% long, between checkpoints 2× apart 0.6%: below the peer runs'
+/// spread from run to run (bench/RESULTS.md).
+const REFERENCE_NOISE_WARNING: f64 = 0.1;
 
 /// Runs `bench/plot_peer.py` over the CSV files (a missing matplotlib is a warning).
 pub fn plot(options: &PeerOptions, scenes: &[String]) {
@@ -522,5 +632,62 @@ mod tests {
         assert_eq!(s.time_to_error(0.01), None);
         assert_eq!(s.error_at_time(5.0), None);
         assert_eq!(s.error_at_time(0.5), None);
+    }
+
+    fn result(noise: Option<ReferenceNoise>) -> PeerResult {
+        PeerResult {
+            scene: "box".into(),
+            reference_note: String::new(),
+            reference_noise: noise,
+            // Ends at 2e-4 and 1e-4: the smaller of the two rows' compared errors is 1e-4
+            // (each row compares at the larger last error of its series and the peer's).
+            pathlight: vec![
+                series(&[(1, 1.0, 4e-4), (2, 2.0, 2e-4)]),
+                series(&[(1, 1.0, 2e-4), (2, 2.0, 5e-5)]),
+            ],
+            peer: Some(series(&[(1, 1.0, 2e-4), (2, 2.0, 1e-4)])),
+            peer_low_discrepancy: None,
+            agreement: None,
+        }
+    }
+
+    #[test]
+    fn a_noisy_reference_is_called_out_under_the_table() {
+        let quiet = reference_noise_lines(&[result(Some(ReferenceNoise { relmse: 5e-6, measured: true }))]);
+        assert!(quiet.contains("box: the reference's own relMSE is 5.00e-6 (measured), 5.0% of"), "{quiet}");
+        assert!(!quiet.contains("More than a tenth"), "{quiet}");
+        let noisy =
+            reference_noise_lines(&[result(Some(ReferenceNoise { relmse: 2.5e-5, measured: false }))]);
+        assert!(
+            noisy.contains("2.50e-5 (an upper bound from the file's variance channels), 25.0% of"),
+            "{noisy}"
+        );
+        assert!(noisy.contains("More than a tenth"), "{noisy}");
+        assert_eq!(reference_noise_lines(&[result(None)]), "");
+    }
+
+    #[test]
+    fn a_reference_file_gives_its_recorded_noise_else_a_bound_from_its_variance() {
+        let image = LinearImage {
+            width: 1,
+            height: 2,
+            rgb: vec![[1.0; 3], [0.0; 3]],
+            variance: Some(vec![[0.01; 3], [0.01; 3]]),
+            spp: Some(4),
+            replicate_variance: None,
+        };
+        // (0.01 / (1 + 0.01) + 0.01 / 0.01) / 2 over the two pixels.
+        let bound = (0.01 / 1.01 + 1.0) / 2.0;
+        let mut attributes = std::collections::HashMap::new();
+        let from_variance = ReferenceNoise::of_file(&image, &attributes).unwrap();
+        assert!(!from_variance.measured && (from_variance.relmse - bound).abs() < 1e-6, "{from_variance:?}");
+        attributes.insert(crate::film::PREDICTED_RELMSE_ATTRIBUTE.to_string(), "1.5e-6".to_string());
+        assert_eq!(
+            ReferenceNoise::of_file(&image, &attributes),
+            Some(ReferenceNoise { relmse: 1.5e-6, measured: true })
+        );
+        // A garbled figure is not believed.
+        attributes.insert(crate::film::PREDICTED_RELMSE_ATTRIBUTE.to_string(), "NaN".to_string());
+        assert!(!ReferenceNoise::of_file(&image, &attributes).unwrap().measured);
     }
 }
