@@ -356,7 +356,7 @@ def main():
     p.add_argument("--reference", required=True, help="reference EXR (R, G, B)")
     p.add_argument("--time-limit", type=float, default=30.0, help="stop the series after a render this long")
     p.add_argument("--max-spp", type=int, default=65536)
-    p.add_argument("--converged-spp", type=int, default=1024)
+    p.add_argument("--converged-spp", type=int, default=8192)
     p.add_argument("--batches", type=int, default=16)
     p.add_argument("--log", required=True, help="CSV: spp, seconds, rmse, relmse")
     p.add_argument("--converged", help="EXR written with mean and variance (none: no converged image)")

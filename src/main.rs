@@ -154,8 +154,11 @@ struct BenchArgs {
     #[arg(long, default_value = "llvm_ad_rgb")]
     variant: String,
     /// With --peer: samples per pixel of the peer's converged image, z-tested against the
-    /// reference.
-    #[arg(long, default_value_t = 1024)]
+    /// reference. Its 16 batches must each see a scene's rare paths: at 1,024 (batches of
+    /// 64) the glass scene's caustics failed the test against a clean reference, at 8,192
+    /// they passed (bench/RESULTS.md). Mitsuba takes about 2 minutes for the Cornell box and
+    /// 5 for the glass scene at this count, on 2 cores at 256².
+    #[arg(long, default_value_t = 8192)]
     converged_spp: u32,
 }
 
