@@ -40,13 +40,15 @@ const RELMSE_EPSILON: f64 = 1e-2;
 pub fn predicted_relmse(image: &LinearImage) -> Option<f64> {
     let variance = image.replicate_variance.as_ref().or(image.variance.as_ref())?;
     let n = (image.rgb.len() * 3) as f64;
-    let sum: f64 = image
-        .rgb
-        .iter()
-        .zip(variance)
-        .flat_map(|(m, v)| (0..3).map(move |c| v[c] as f64 / ((m[c] as f64).powi(2) + RELMSE_EPSILON)))
-        .sum();
+    let sum: f64 =
+        image.rgb.iter().zip(variance).flat_map(|(m, v)| (0..3).map(move |c| relmse_term(m[c], v[c]))).sum();
     Some(sum / n)
+}
+
+/// One pixel channel's share of the predicted relMSE: the variance of its mean over its
+/// mean² + ε (also `Film::predicted_relmse`'s, so that both sum the same numbers).
+pub(super) fn relmse_term(mean: f32, variance: f32) -> f64 {
+    variance as f64 / ((mean as f64).powi(2) + RELMSE_EPSILON)
 }
 
 /// RMSE and relMSE of `image` against `reference` (same size).

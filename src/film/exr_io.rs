@@ -4,7 +4,7 @@
 //! `variance.B` the estimated variance of that mean (sample variance / n), all f32. Header
 //! attributes record how the image was made (`pathlight.*`) and, as
 //! `pathlight.predictedRelMSE`, the relMSE the image's own error predicts
-//! ([`crate::film::predicted_relmse`]). Under QMC that figure comes from the sampler's two
+//! ([`Film::predicted_relmse`]). Under QMC that figure comes from the sampler's two
 //! independent replicates, which the variance channels cannot hold: their sample variance
 //! over-states the error (2× for a 4,096-spp Cornell box, bench/RESULTS.md), so a file read
 //! back without the attribute can only give an upper bound.
@@ -78,7 +78,7 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
     put("pathlight.sampler", AttributeValue::Text(Text::from(meta.sampler.name())));
     put("pathlight.splits", AttributeValue::Text(Text::from(meta.splits.to_string().as_str())));
     put("pathlight.scene", AttributeValue::Text(Text::from(meta.scene.as_str())));
-    if let Some(relmse) = super::predicted_relmse(&super::LinearImage::from_film(film)) {
+    if let Some(relmse) = film.predicted_relmse() {
         put(PREDICTED_RELMSE_ATTRIBUTE, AttributeValue::F64(relmse));
     }
     let layer = Layer::new(size, attributes, Encoding::FAST_LOSSLESS, channels);

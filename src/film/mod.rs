@@ -72,20 +72,9 @@ impl Film {
     /// Estimated variance of each pixel's mean: sample variance / n = M2 / ((n − 1) n).
     /// Zero where fewer than two samples were taken (no estimate exists).
     pub fn variance_of_mean(&self) -> Vec<Vec3> {
-        self.pixels
-            .iter()
-            .map(|p| {
-                if p.count < 2 {
-                    Vec3::ZERO
-                } else {
-                    let n = p.count as f32;
-                    Vec3::from(p.m2) / ((n - 1.0) * n)
-                }
-            })
-            .collect()
+        self.pixels.iter().map(pixel_variance_of_mean).collect()
     }
 
-    /// Samples accumulated over all pixels.
     /// The variance of each pixel's mean measured from its two replicates, or `None` while
     /// some pixel lacks a sample of either.
     ///
@@ -97,22 +86,35 @@ impl Film {
     /// variance it stays right when the samples of a pixel are stratified (QMC), where the
     /// sample variance over-states the error.
     pub fn replicate_variance_of_mean(&self) -> Option<Vec<Vec3>> {
-        self.pixels
-            .iter()
-            .map(|p| {
-                let (n_odd, n) = (p.odd_count as f32, p.count as f32);
-                let n_even = n - n_odd;
-                if n_odd == 0.0 || n_even == 0.0 {
-                    return None;
-                }
-                let odd = Vec3::from(p.odd_mean);
-                let even = (Vec3::from(p.mean) * n - odd * n_odd) / n_even;
-                let d = even - odd;
-                Some(d * d * (n_even * n_odd / (n * n)))
-            })
-            .collect()
+        self.pixels.iter().map(pixel_replicate_variance_of_mean).collect()
     }
 
+    /// The image's predicted relMSE, as [`predicted_relmse`] gives it for
+    /// [`LinearImage::from_film`] (the same numbers in the same order), without building
+    /// that image: a film may hold 2²⁸ pixels, and the image would be three more arrays of
+    /// its size. From the replicates where every pixel has both, else from the sample
+    /// variance where every pixel has two samples; `None` otherwise.
+    pub fn predicted_relmse(&self) -> Option<f64> {
+        let replicates = self.pixels.iter().all(|p| pixel_replicate_variance_of_mean(p).is_some());
+        if !replicates && self.pixels.iter().any(|p| p.count < 2) {
+            return None;
+        }
+        let sum: f64 = self
+            .pixels
+            .iter()
+            .flat_map(|p| {
+                let variance = if replicates {
+                    pixel_replicate_variance_of_mean(p).unwrap_or(Vec3::ZERO)
+                } else {
+                    pixel_variance_of_mean(p)
+                };
+                (0..3).map(move |c| convergence::relmse_term(p.mean[c], variance[c]))
+            })
+            .sum();
+        Some(sum / (self.pixels.len() * 3) as f64)
+    }
+
+    /// Samples accumulated over all pixels.
     pub fn total_samples(&self) -> u64 {
         self.pixels.iter().map(|p| p.count as u64).sum()
     }
@@ -165,6 +167,29 @@ pub fn check_writable(path: &std::path::Path) -> crate::Result<()> {
     }
 }
 
+/// [`Film::variance_of_mean`] of one pixel.
+fn pixel_variance_of_mean(p: &FilmPixel) -> Vec3 {
+    if p.count < 2 {
+        Vec3::ZERO
+    } else {
+        let n = p.count as f32;
+        Vec3::from(p.m2) / ((n - 1.0) * n)
+    }
+}
+
+/// [`Film::replicate_variance_of_mean`] of one pixel.
+fn pixel_replicate_variance_of_mean(p: &FilmPixel) -> Option<Vec3> {
+    let (n_odd, n) = (p.odd_count as f32, p.count as f32);
+    let n_even = n - n_odd;
+    if n_odd == 0.0 || n_even == 0.0 {
+        return None;
+    }
+    let odd = Vec3::from(p.odd_mean);
+    let even = (Vec3::from(p.mean) * n - odd * n_odd) / n_even;
+    let d = even - odd;
+    Some(d * d * (n_even * n_odd / (n * n)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -212,5 +237,29 @@ mod tests {
         let mean = v.iter().map(|v| v.x as f64).sum::<f64>() / v.len() as f64;
         assert!((mean * n as f64 - 1.0).abs() < 0.05, "{}", mean * n as f64);
         assert!(Film::new(2, 2).replicate_variance_of_mean().is_none());
+    }
+
+    /// The film's own predicted relMSE is the image's, bit for bit, whichever variance it
+    /// rests on: both replicates in every pixel, one replicate only (the sample variance),
+    /// or a pixel with a single sample (none).
+    #[test]
+    fn film_predicts_the_relmse_its_image_does() {
+        let mut rng = crate::sampling::Rng::new(5, 6, 7, 8);
+        for (samples, replicates) in [(6, 2), (6, 1), (1, 2)] {
+            let mut film = Film::new(13, 7);
+            for p in &mut film.pixels {
+                for k in 0..samples {
+                    let x = Vec3::new(rng.next_1d(), 3.0 * rng.next_1d(), 0.01 * rng.next_1d());
+                    film_add_sample(p, x, k % replicates);
+                }
+            }
+            let want = predicted_relmse(&LinearImage::from_film(&film));
+            assert_eq!(
+                film.predicted_relmse().map(f64::to_bits),
+                want.map(f64::to_bits),
+                "{samples} {replicates}"
+            );
+            assert_eq!(want.is_some(), samples > 1, "{samples} {replicates}");
+        }
     }
 }
