@@ -143,7 +143,7 @@ fn child_step(pre: TraversalPrecomp, t_max: f32, current: u32, node: BvhNode, de
     // The nearer child culled: whatever the trail held below it is moot (the twin says why
     // a restart never meets this).
     let kept = select(trail.passed, trail_through(trail.passed, child), hit_far);
-    let step = ChildStep(
+    return ChildStep(
         select(select(far, near, hit_near), far, far_only),
         select(hit_near || hit_far, hit_far, far_only),
         far,
@@ -153,7 +153,6 @@ fn child_step(pre: TraversalPrecomp, t_max: f32, current: u32, node: BvhNode, de
             select(trail.single, select(trail.single & ~bit, trail.single | bit, one_hit), !passed),
         ),
     );
-    return step;
 }
 
 // Visits the leaves the ray may touch, nearer child first (twin of

@@ -35,12 +35,13 @@ fn vertices(t: &Triangle) -> (Vec3, Vec3, Vec3) {
 /// At each depth d on the path from the root to the current node, d's bit of `passed`
 /// ([`trail_bit`]) says the traversal is in the last child it will visit at that depth: the
 /// farther of two children (the nearer one done), or the only one of them the ray
-/// overlapped, which d's bit of `single` marks. A clear `passed` bit means the nearer of two: the farther waits on the short stack
-/// (or was dropped from it). After a restart the traversal descends from the root following
-/// these bits. `single` is what keeps a restart exact: with `passed` alone, a level whose
-/// farther child a nearer hit has culled since (its nearer child done) would read the same as
-/// one whose ray only ever overlapped the nearer child (not done), and telling them apart
-/// would cost visiting the nearer child again.
+/// overlapped, which d's bit of `single` marks. A clear `passed` bit means the nearer of
+/// two: the farther waits on the short stack (or was dropped from it). After a restart the
+/// traversal descends from the root following these bits. `single` is what keeps a restart
+/// exact: with `passed` alone, a level whose farther child a nearer hit has culled since
+/// (its nearer child done) would read the same as one whose ray only ever overlapped the
+/// nearer child (not done), and telling them apart would cost visiting the nearer child
+/// again.
 #[derive(Clone, Copy)]
 struct Trail {
     passed: u64,
@@ -87,9 +88,10 @@ fn child_step(
     // or neither (pop). If the one is the farther, whatever the trail held below the nearer
     // is moot and cleared; on a restart that cannot happen unless a hit inside the nearer
     // child came before its box's entry, which the entry margin of `entry_within` rules
-    // out, so no test reaches it: the clear keeps the trail right should rounding allow it. Passed and single: go to whichever child is overlapped now (at
-    // most the one that was). Passed, not single: the nearer is done; the farther if it is
-    // still overlapped. The kernel computes the same with selects.
+    // out, so no test reaches it: the clear keeps the trail right should rounding allow it.
+    // Passed and single: go to whichever child is overlapped now (at most the one that
+    // was). Passed, not single: the nearer is done; the farther if it is still overlapped.
+    // The kernel computes the same with selects.
     let child = depth + 1;
     let bit = trail_bit(child);
     let passed = trail.passed & bit != 0;
@@ -112,6 +114,7 @@ fn child_step(
         },
     }
 }
+
 /// Visits the leaves the ray may touch, nearer first; `visit` tests a leaf's triangles, may
 /// shorten `ray.t_max`, and returns `true` to stop. Keeps up to `stack_limit` (at most
 /// [`SHORT_STACK_SIZE`]) deferred children; 0 restarts from the root after every leaf.
