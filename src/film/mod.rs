@@ -95,23 +95,22 @@ impl Film {
     /// its size. From the replicates where every pixel has both, else from the sample
     /// variance where every pixel has two samples; `None` otherwise.
     pub fn predicted_relmse(&self) -> Option<f64> {
-        let replicates = self.pixels.iter().all(|p| pixel_replicate_variance_of_mean(p).is_some());
-        if !replicates && self.pixels.iter().any(|p| p.count < 2) {
-            return None;
-        }
-        let sum: f64 = self
-            .pixels
-            .iter()
-            .flat_map(|p| {
-                let variance = if replicates {
-                    pixel_replicate_variance_of_mean(p).unwrap_or(Vec3::ZERO)
-                } else {
-                    pixel_variance_of_mean(p)
-                };
-                (0..3).map(move |c| convergence::relmse_term(p.mean[c], variance[c]))
-            })
-            .sum();
+        let sample_variance = |p: &FilmPixel| (p.count >= 2).then(|| pixel_variance_of_mean(p));
+        let sum =
+            self.relmse_sum(pixel_replicate_variance_of_mean).or_else(|| self.relmse_sum(sample_variance))?;
         Some(sum / (self.pixels.len() * 3) as f64)
+    }
+
+    /// Σ over pixels and channels of the relMSE term with each pixel's `variance` of its
+    /// mean, added in [`predicted_relmse`]'s order; `None` at the first pixel without one.
+    fn relmse_sum(&self, variance: impl Fn(&FilmPixel) -> Option<Vec3>) -> Option<f64> {
+        self.pixels.iter().try_fold(0.0f64, |mut sum, p| {
+            let v = variance(p)?;
+            for c in 0..3 {
+                sum += convergence::relmse_term(p.mean[c], v[c]);
+            }
+            Some(sum)
+        })
     }
 
     /// Samples accumulated over all pixels.
