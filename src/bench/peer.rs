@@ -137,15 +137,16 @@ pub struct PeerResult {
     pub agreement: Option<CompareReport>,
 }
 
-/// The fastest backend present for a reference: a hardware GPU, else the CPU.
+/// The backend a reference renders on: `hardware_gpu` (the fastest present) if there is
+/// one, else the CPU.
 fn reference_backend(
     flat: &Arc<FlatScene>,
     settings: &RenderSettings,
-    gpu: Option<&Arc<GpuContext>>,
+    hardware_gpu: Option<&Arc<GpuContext>>,
 ) -> Result<Box<dyn Backend>> {
-    Ok(match gpu {
-        Some(ctx) if ctx.is_hardware() => Box::new(GpuBackend::new(ctx.clone(), flat, settings)?),
-        _ => Box::new(CpuBackend::shared(flat.clone(), settings)),
+    Ok(match hardware_gpu {
+        Some(ctx) => Box::new(GpuBackend::new(ctx.clone(), flat, settings)?),
+        None => Box::new(CpuBackend::shared(flat.clone(), settings)),
     })
 }
 
@@ -220,17 +221,17 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
     // path-traced and unsplit. Each camera sample then costs more, so one spp of reference
     // is worth more. Whether the estimators converge to the right image is for the z-test
     // against the peer's to say.
-    let hardware_gpu = options.gpu.as_ref().is_some_and(|ctx| ctx.is_hardware());
+    let hardware_gpu = options.gpu.as_ref().filter(|ctx| ctx.is_hardware());
     let settings = RenderSettings {
         width: options.width,
         height: options.height,
         spp: options.reference_spp,
         seed: 0x5EED_0001,
-        splits: crate::render::default_splits(hardware_gpu),
+        splits: crate::render::default_splits(hardware_gpu.is_some()),
         light_tracing: true,
         ..RenderSettings::default()
     };
-    let mut backend = reference_backend(flat, &settings, options.gpu.as_ref())?;
+    let mut backend = reference_backend(flat, &settings, hardware_gpu)?;
     let start = Instant::now();
     eprintln!("{}: rendering the reference, {} spp on {}", scene.name, settings.spp, backend.name());
     render_progressive_with(backend.as_mut(), settings.spp, &AtomicBool::new(false), |_, _, _| Ok(false))?;
