@@ -286,7 +286,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
 
             // Twin of `scatter`.
             let u_lobe = rng_next_1d();
-            let u_dir = rng_next_2d();
+            let u_dir = rng_next_direction_2d();
             let bs = gltf_bsdf_sample(bsdf, si.wo, u_lobe, u_dir);
             if (!bs.valid) {
                 break;

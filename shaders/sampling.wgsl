@@ -23,7 +23,8 @@ fn pcg4d(v_in: vec4<u32>) -> vec4<u32> {
 // padded, shuffled, Owen-scrambled Sobol points in two replicates (Burley 2020), or
 // independent xoshiro128** numbers (Blackman & Vigna 2021). One sample's state, per
 // invocation: for Sobol (pixel seed, bit-reversed index within the replicate, next
-// dimension); for the independent sampler the xoshiro state.
+// dimension, the dimension of a direction pair's first member plus one or 0); for the
+// independent sampler the xoshiro state.
 const SAMPLER_SOBOL: u32 = 0u;
 const SAMPLER_INDEPENDENT: u32 = 1u;
 
@@ -63,6 +64,8 @@ fn sampler_split(state: vec4<u32>, j: u32, splits: u32) {
     rng_s = state;
     if (path_sampler_kind == SAMPLER_SOBOL) {
         rng_s.y = reverseBits(reverseBits(state.y) * splits + j);
+        // A continuation's first direction starts a pair.
+        rng_s.w = 0u;
         return;
     }
     xoshiro_seed(vec4<u32>(xoshiro_next(), j, splits, SPLIT_STREAM_SALT));
@@ -167,6 +170,44 @@ fn rng_next_2d() -> vec2<f32> {
     let x = fraction_to_f32(xoshiro_next());
     let y = fraction_to_f32(xoshiro_next());
     return vec2<f32>(x, y);
+}
+
+// Twin of `sobol_component` on `SOBOL_THIRD` and `SOBOL_FOURTH`: the third and fourth Sobol
+// components (fractions) of index i's 24 low bits, the columns made by their recurrences
+// (x² + x + 1: v_k = v_k−1 ⊕ v_k−2 ⊕ v_k−2 ≫ 2; x³ + x + 1: v_k = v_k−2 ⊕ v_k−3 ⊕ v_k−3 ≫ 3)
+// in registers rather than read from a table.
+fn sobol_third_fourth(i: u32) -> vec2<u32> {
+    var third = vec2<u32>(0x80000000u, 0xc0000000u);
+    var fourth = vec3<u32>(0x80000000u, 0xc0000000u, 0x20000000u);
+    var x = vec2<u32>(0u);
+    for (var k = 0u; k < 24u; k++) {
+        let bit = 0u - ((i >> k) & 1u);
+        x ^= vec2<u32>(third.x, fourth.x) & vec2<u32>(bit);
+        third = vec2<u32>(third.y, third.y ^ third.x ^ (third.x >> 2u));
+        fourth = vec3<u32>(fourth.y, fourth.z, fourth.y ^ fourth.x ^ (fourth.x >> 3u));
+    }
+    return x;
+}
+
+// Twin of `PathSampler::next_direction_2d`: under Sobol a path's BSDF directions come in
+// pairs, the second the third and fourth components of the index its partner's dimension
+// shuffled (src/sampling/sobol.rs explains).
+fn rng_next_direction_2d() -> vec2<f32> {
+    if (path_sampler_kind != SAMPLER_SOBOL) {
+        return rng_next_2d();
+    }
+    if (rng_s.w == 0u) {
+        rng_s.w = rng_s.z + 1u;
+        return rng_next_2d();
+    }
+    let shuffled = owen_scramble_reversed(rng_s.y, dimension_seed(rng_s.x, rng_s.w - 1u));
+    rng_s.w = 0u;
+    let seed = dimension_seed(rng_s.x, rng_s.z);
+    rng_s.z += 1u;
+    let c = sobol_third_fourth(shuffled);
+    let x = owen_scramble_reversed(reverseBits(c.x), hash_u32(seed ^ 1u));
+    let y = owen_scramble_reversed(reverseBits(c.y), hash_u32(seed ^ 2u));
+    return vec2<f32>(fraction_to_f32(x), fraction_to_f32(y));
 }
 
 // Concentric square-to-disk map (Shirley & Chiu 1997). The angle is π/4 · t or

@@ -478,7 +478,7 @@ fn scatter(
         rng.skip_1d();
         0.0
     };
-    let u_dir = rng.next_2d();
+    let u_dir = rng.next_direction_2d();
     let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { return Scatter::End };
     let wi_world = si.frame.from_local(bs.wi).normalize();
     if !sides_agree(si, wi_world, bs.wi) {

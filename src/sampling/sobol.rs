@@ -10,6 +10,16 @@
 //! Paths of any length are covered: dimensions are never exhausted. The CPU computes a
 //! path's dimensions eight at a time, 8-wide (`sobol_batch`), and hands them out in order.
 //!
+//! One exception to the padding: a path's BSDF directions are drawn in pairs
+//! ([`PathSampler::next_direction_2d`]). The second of a pair does not shuffle the index on
+//! its own; it takes the third and fourth Sobol components of the index its partner
+//! shuffled, so the two bounces' directions are one 4-D Owen-scrambled Sobol point (Burley
+//! 2020 §5 pads 4-D Sobol points the same way). The radiance a direction finds depends on
+//! the next bounce's direction, not only on its own (the Cornell box's indirect light), and
+//! padding leaves that product unstratified: pairing them lowers the Cornell box's relMSE
+//! by 5.7% at 256 spp, for 2–3% more time (bench/RESULTS.md). Light samples are not paired: their term adds to
+//! the path's rather than multiplying it, which padding already serves.
+//!
 //! Owen scrambling keeps the estimator unbiased but makes the samples of a pixel dependent,
 //! so their sample variance no longer measures the mean's error (it over-states it where the
 //! stratification helps). The samples are therefore split into two *replicates*, the even
@@ -153,6 +163,116 @@ fn sobol_batch(pixel_seed: u32, index_reversed: u32, first: u32) -> [[f32; BATCH
     out
 }
 
+/// Direction numbers (as fractions, most significant bit ½) of the third and fourth Sobol
+/// components, for the 24 index bits that reach a number's 24 bits: primitive polynomials
+/// x² + x + 1 and x³ + x + 1 with initial m = (1, 3) and (1, 3, 1) (Joe & Kuo 2008, the
+/// `new-joe-kuo-6.21201` table's second and third rows). Column k of a Sobol matrix has no
+/// bit above position k + 1, and an Owen scramble's output bit depends only on the input's
+/// bits above it, so index bits from 24 on change nothing `fraction_to_f32` keeps. The WGSL
+/// twin computes the same columns by their recurrences instead of reading a table.
+const SOBOL_THIRD: [u32; 24] = [
+    0x8000_0000,
+    0xc000_0000,
+    0x6000_0000,
+    0x9000_0000,
+    0xe800_0000,
+    0x5c00_0000,
+    0x8e00_0000,
+    0xc500_0000,
+    0x6880_0000,
+    0x9cc0_0000,
+    0xee60_0000,
+    0x5590_0000,
+    0x8068_0000,
+    0xc09c_0000,
+    0x60ee_0000,
+    0x9055_0000,
+    0xe880_8000,
+    0x5cc0_c000,
+    0x8e60_6000,
+    0xc590_9000,
+    0x6868_e800,
+    0x9c9c_5c00,
+    0xeeee_8e00,
+    0x5555_c500,
+];
+const SOBOL_FOURTH: [u32; 24] = [
+    0x8000_0000,
+    0xc000_0000,
+    0x2000_0000,
+    0x5000_0000,
+    0xf800_0000,
+    0x7400_0000,
+    0xa200_0000,
+    0x9300_0000,
+    0xd880_0000,
+    0x2540_0000,
+    0x59e0_0000,
+    0xe6d0_0000,
+    0x7808_0000,
+    0xb40c_0000,
+    0x8202_0000,
+    0xc305_0000,
+    0x208f_8000,
+    0x5147_4000,
+    0xfbea_2000,
+    0x75d9_3000,
+    0xa085_8800,
+    0x914e_5400,
+    0xdbe7_9e00,
+    0x25db_6d00,
+];
+
+/// A Sobol component by bytes of the index: entry `b · 256 + v` is the XOR of the columns
+/// that byte `b` of the index selects when it is `v`, so a component is three lookups.
+const fn byte_tables(columns: &[u32; 24]) -> [u32; 768] {
+    let mut table = [0u32; 768];
+    let mut b = 0;
+    while b < 3 {
+        let mut v = 0;
+        while v < 256 {
+            let mut x = 0;
+            let mut k = 0;
+            while k < 8 {
+                if v >> k & 1 != 0 {
+                    x ^= columns[b * 8 + k];
+                }
+                k += 1;
+            }
+            table[b * 256 + v] = x;
+            v += 1;
+        }
+        b += 1;
+    }
+    table
+}
+
+static SOBOL_THIRD_BYTES: [u32; 768] = byte_tables(&SOBOL_THIRD);
+static SOBOL_FOURTH_BYTES: [u32; 768] = byte_tables(&SOBOL_FOURTH);
+
+/// The Sobol component whose [`byte_tables`] are `table`, at index `i` (a fraction).
+#[inline(always)]
+fn sobol_component(table: &[u32; 768], i: u32) -> u32 {
+    table[(i & 0xff) as usize]
+        ^ table[256 + (i >> 8 & 0xff) as usize]
+        ^ table[512 + (i >> 16 & 0xff) as usize]
+}
+
+/// The second of a direction pair: Sobol components 3 and 4 of `shuffled` (the index its
+/// partner's dimension shuffled), each Owen-scrambled by seeds of this pair member's own
+/// dimension, `dimension_seed`. WGSL twin: `sobol_paired_point`.
+fn paired_point(shuffled: u32, dimension_seed: u32) -> (f32, f32) {
+    let x = owen_scramble_reversed(
+        sobol_component(&SOBOL_THIRD_BYTES, shuffled).reverse_bits(),
+        hash_u32(dimension_seed ^ 1),
+    );
+    let y = owen_scramble_reversed(
+        sobol_component(&SOBOL_FOURTH_BYTES, shuffled).reverse_bits(),
+        hash_u32(dimension_seed ^ 2),
+    );
+    (fraction_to_f32(x), fraction_to_f32(y))
+}
+
 /// Distinguishes the independent sampler's continuation streams ([`PathSampler::split`])
 /// from its sample streams, which are seeded by (x, y, sample index, seed).
 pub(crate) const SPLIT_STREAM_SALT: u32 = 0x5b1e_7c3d;
@@ -176,6 +296,9 @@ pub struct SobolStream {
     /// Dimensions `batch_first ..` as numbers in [0, 1): `batch[0]` the x, `batch[1]` the y
     /// coordinates.
     batch: [[f32; BATCH]; 2],
+    /// The dimension of the first direction of a pair whose second is still to be drawn,
+    /// plus one; 0 when the next direction starts a pair.
+    partner: u32,
 }
 
 impl SobolStream {
@@ -187,6 +310,7 @@ impl SobolStream {
             batch_first: 0,
             // Every path draws its camera jitter from dimension 0.
             batch: sobol_batch(pixel_seed, index_reversed, 0),
+            partner: 0,
         }
     }
 
@@ -211,6 +335,21 @@ impl SobolStream {
     fn refill(&mut self, first: u32) {
         self.batch = sobol_batch(self.pixel_seed, self.index_reversed, first);
         self.batch_first = first;
+    }
+
+    /// The next dimension's point as a BSDF direction: the first of a pair as any point,
+    /// the second as the pair's third and fourth components.
+    #[inline(always)]
+    fn next_direction(&mut self) -> (f32, f32) {
+        if self.partner == 0 {
+            self.partner = self.dimension + 1;
+            return self.next_point();
+        }
+        let (_, shuffled) = dimension_seed_and_index(self.pixel_seed, self.index_reversed, self.partner - 1);
+        self.partner = 0;
+        let seed = dimension_seed(self.pixel_seed, self.dimension);
+        self.dimension += 1;
+        paired_point(shuffled, seed)
     }
 
     /// Passes over the next dimension.
@@ -261,7 +400,10 @@ impl PathSampler {
         match self {
             PathSampler::Sobol(stream) => {
                 let index = stream.index_reversed.reverse_bits().wrapping_mul(splits).wrapping_add(j);
-                let mut split = SobolStream { index_reversed: index.reverse_bits(), ..stream.clone() };
+                // A continuation's first direction starts a pair: a pair begun before the split
+                // belongs to another index.
+                let mut split =
+                    SobolStream { index_reversed: index.reverse_bits(), partner: 0, ..stream.clone() };
                 split.refill(split.dimension);
                 PathSampler::Sobol(split)
             }
@@ -310,6 +452,19 @@ impl PathSampler {
                 rng.next_u32();
                 rng.next_u32();
             }
+        }
+    }
+
+    /// Uniform in [0, 1)², for sampling a BSDF direction: under Sobol, a path's directions
+    /// come in pairs that are 4-D points (the module's documentation); independent numbers
+    /// otherwise, as [`Self::next_2d`].
+    pub fn next_direction_2d(&mut self) -> Vec2 {
+        match self {
+            PathSampler::Sobol(stream) => {
+                let (x, y) = stream.next_direction();
+                Vec2::new(x, y)
+            }
+            PathSampler::Independent(rng) => rng.next_2d(),
         }
     }
 
@@ -444,6 +599,42 @@ mod tests {
     /// samples split four ways at dimension 3 give 2^m · 4 points in each later dimension,
     /// and those are a (0, m + 2, 2)-net, as 2^m · 4 unsplit samples' would be. (Indexed
     /// i + j instead of i·4 + j, neighbouring samples' continuations overlap, and this fails.)
+    /// A pixel's direction pairs are 4-D nets: 16 samples put one pair in each of the
+    /// 2×2×2×2 cells, 64 one in each 4×4×2×2 cell (as the first four Sobol components do),
+    /// whether drawn straight from the sample or from one continuation of a split, with other
+    /// numbers drawn between the pair's members. Padded pairs, each direction shuffled on its
+    /// own, fail this.
+    #[test]
+    fn direction_pairs_are_four_dimensional_nets() {
+        for (n, cells) in [(16u32, [2u32, 2, 2, 2]), (64, [4, 4, 2, 2])] {
+            for replicate in 0..2 {
+                for split in [false, true] {
+                    let mut seen = vec![false; n as usize];
+                    for k in 0..n {
+                        let mut s = PathSampler::new(SamplerKind::Sobol, 5, 9, 2 * k + replicate, 7);
+                        s.next_2d();
+                        if split {
+                            // Sample k's continuation 0 of 1: the same index, a new stream.
+                            s.next_direction_2d();
+                            s = s.split(0, 1);
+                        }
+                        let first = s.next_direction_2d();
+                        s.next_1d();
+                        s.next_2d();
+                        let second = s.next_direction_2d();
+                        let c = [first.x, first.y, second.x, second.y];
+                        let cell = (0..4).fold(0, |acc, d| acc * cells[d] + (c[d] * cells[d] as f32) as u32);
+                        assert!(
+                            !seen[cell as usize],
+                            "n {n} replicate {replicate} split {split}: cell {cell} twice"
+                        );
+                        seen[cell as usize] = true;
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn split_continuations_are_a_net_in_each_later_dimension() {
         let splits = 4u32;
