@@ -160,12 +160,18 @@ fn rng_next_1d() -> f32 {
     return fraction_to_f32(xoshiro_next());
 }
 
+// The point whose two coordinates, bit-reversed, are `reversed`, Owen-scrambled by the
+// seeds of the dimension whose seed is `seed`.
+fn sobol_scrambled_point(reversed: vec2<u32>, seed: u32) -> vec2<f32> {
+    let x = owen_scramble_reversed(reversed.x, hash_u32(seed ^ 1u));
+    let y = owen_scramble_reversed(reversed.y, hash_u32(seed ^ 2u));
+    return vec2<f32>(fraction_to_f32(x), fraction_to_f32(y));
+}
+
 fn rng_next_2d() -> vec2<f32> {
     if (path_sampler_kind == SAMPLER_SOBOL) {
         let d = sobol_next_dimension();
-        let x = owen_scramble_reversed(d.y, hash_u32(d.x ^ 1u));
-        let y = owen_scramble_reversed(sobol_second_reversed(d.y), hash_u32(d.x ^ 2u));
-        return vec2<f32>(fraction_to_f32(x), fraction_to_f32(y));
+        return sobol_scrambled_point(vec2<u32>(d.y, sobol_second_reversed(d.y)), d.x);
     }
     let x = fraction_to_f32(xoshiro_next());
     let y = fraction_to_f32(xoshiro_next());
@@ -173,9 +179,9 @@ fn rng_next_2d() -> vec2<f32> {
 }
 
 // Twin of `sobol_component` on `SOBOL_THIRD` and `SOBOL_FOURTH`: the third and fourth Sobol
-// components (fractions) of index i's 24 low bits, the columns made by their recurrences
-// (x² + x + 1: v_k = v_k−1 ⊕ v_k−2 ⊕ v_k−2 ≫ 2; x³ + x + 1: v_k = v_k−2 ⊕ v_k−3 ⊕ v_k−3 ≫ 3)
-// in registers rather than read from a table.
+// components (fractions) of index i's 24 low bits, the columns made by the recurrences of
+// `sobol_columns` (x² + x + 1: v_k = v_k−1 ⊕ v_k−2 ⊕ v_k−2 ≫ 2; x³ + x + 1:
+// v_k = v_k−2 ⊕ v_k−3 ⊕ v_k−3 ≫ 3) in registers, where the CPU reads byte tables.
 fn sobol_third_fourth(i: u32) -> vec2<u32> {
     var third = vec2<u32>(0x80000000u, 0xc0000000u);
     var fourth = vec3<u32>(0x80000000u, 0xc0000000u, 0x20000000u);
@@ -204,10 +210,7 @@ fn rng_next_direction_2d() -> vec2<f32> {
     rng_s.w = 0u;
     let seed = dimension_seed(rng_s.x, rng_s.z);
     rng_s.z += 1u;
-    let c = sobol_third_fourth(shuffled);
-    let x = owen_scramble_reversed(reverseBits(c.x), hash_u32(seed ^ 1u));
-    let y = owen_scramble_reversed(reverseBits(c.y), hash_u32(seed ^ 2u));
-    return vec2<f32>(fraction_to_f32(x), fraction_to_f32(y));
+    return sobol_scrambled_point(reverseBits(sobol_third_fourth(shuffled)), seed);
 }
 
 // Concentric square-to-disk map (Shirley & Chiu 1997). The angle is π/4 · t or

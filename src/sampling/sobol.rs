@@ -164,65 +164,40 @@ fn sobol_batch(pixel_seed: u32, index_reversed: u32, first: u32) -> [[f32; BATCH
     out
 }
 
-/// Direction numbers (as fractions, most significant bit ½) of the third and fourth Sobol
-/// components, for the 24 index bits that reach a number's 24 bits: primitive polynomials
-/// x² + x + 1 and x³ + x + 1 with initial m = (1, 3) and (1, 3, 1) (Joe & Kuo 2008, the
-/// `new-joe-kuo-6.21201` table's second and third rows). Column k of a Sobol matrix has no
-/// bit above position k + 1, and an Owen scramble's output bit depends only on the input's
-/// bits above it, so index bits from 24 on change nothing `fraction_to_f32` keeps. The WGSL
-/// twin computes the same columns by their recurrences instead of reading a table.
-const SOBOL_THIRD: [u32; 24] = [
-    0x8000_0000,
-    0xc000_0000,
-    0x6000_0000,
-    0x9000_0000,
-    0xe800_0000,
-    0x5c00_0000,
-    0x8e00_0000,
-    0xc500_0000,
-    0x6880_0000,
-    0x9cc0_0000,
-    0xee60_0000,
-    0x5590_0000,
-    0x8068_0000,
-    0xc09c_0000,
-    0x60ee_0000,
-    0x9055_0000,
-    0xe880_8000,
-    0x5cc0_c000,
-    0x8e60_6000,
-    0xc590_9000,
-    0x6868_e800,
-    0x9c9c_5c00,
-    0xeeee_8e00,
-    0x5555_c500,
-];
-const SOBOL_FOURTH: [u32; 24] = [
-    0x8000_0000,
-    0xc000_0000,
-    0x2000_0000,
-    0x5000_0000,
-    0xf800_0000,
-    0x7400_0000,
-    0xa200_0000,
-    0x9300_0000,
-    0xd880_0000,
-    0x2540_0000,
-    0x59e0_0000,
-    0xe6d0_0000,
-    0x7808_0000,
-    0xb40c_0000,
-    0x8202_0000,
-    0xc305_0000,
-    0x208f_8000,
-    0x5147_4000,
-    0xfbea_2000,
-    0x75d9_3000,
-    0xa085_8800,
-    0x914e_5400,
-    0xdbe7_9e00,
-    0x25db_6d00,
-];
+/// The first 24 direction numbers (columns, as fractions: most significant bit ½) of a Sobol
+/// component of degree `degree`, from its first columns `initial` (the initial m_k, placed)
+/// by the recurrence v_k = v_{k−degree} ⊕ (v_{k−degree} ≫ degree) ⊕ the earlier columns
+/// `taps` selects (bit j: v_{k−1−j}) (Bratley & Fox 1988). 24 columns are enough: column k
+/// has no bit above position k + 1, and an Owen scramble's output bit depends only on the
+/// input's bits above it, so index bits from 24 on change nothing `fraction_to_f32` keeps.
+/// The WGSL twin (`sobol_third_fourth`) runs the same recurrences in registers.
+const fn sobol_columns(degree: usize, taps: u32, initial: [u32; 3]) -> [u32; 24] {
+    let mut v = [0u32; 24];
+    let mut k = 0;
+    while k < 24 {
+        v[k] = if k < degree {
+            initial[k]
+        } else {
+            let mut x = v[k - degree] ^ (v[k - degree] >> degree);
+            let mut j = 0;
+            while j + 1 < degree {
+                if taps >> j & 1 != 0 {
+                    x ^= v[k - 1 - j];
+                }
+                j += 1;
+            }
+            x
+        };
+        k += 1;
+    }
+    v
+}
+
+/// The third and fourth Sobol components: primitive polynomials x² + x + 1 and x³ + x + 1
+/// with initial m = (1, 3) and (1, 3, 1) (Joe & Kuo 2008, `new-joe-kuo-6.21201`'s second
+/// and third rows).
+const SOBOL_THIRD: [u32; 24] = sobol_columns(2, 0b1, [0x8000_0000, 0xc000_0000, 0]);
+const SOBOL_FOURTH: [u32; 24] = sobol_columns(3, 0b10, [0x8000_0000, 0xc000_0000, 0x2000_0000]);
 
 /// A Sobol component by bytes of the index: entry `b · 256 + v` is the XOR of the columns
 /// that byte `b` of the index selects when it is `v`, so a component is three lookups.
@@ -261,7 +236,7 @@ fn sobol_component(table: &[u32; 768], i: u32) -> u32 {
 
 /// The second of a direction pair: Sobol components 3 and 4 of `shuffled` (the index its
 /// partner's dimension shuffled), each Owen-scrambled by seeds of this pair member's own
-/// dimension, `dimension_seed`. WGSL twin: `sobol_paired_point`.
+/// dimension, `dimension_seed`. WGSL twin: the second half of `rng_next_direction_2d`.
 fn paired_point(shuffled: u32, dimension_seed: u32) -> (f32, f32) {
     let x = owen_scramble_reversed(
         sobol_component(&SOBOL_THIRD_BYTES, shuffled).reverse_bits(),
@@ -465,7 +440,7 @@ impl PathSampler {
                 let (x, y) = stream.next_direction();
                 Vec2::new(x, y)
             }
-            PathSampler::Independent(rng) => rng.next_2d(),
+            PathSampler::Independent(_) => self.next_2d(),
         }
     }
 
@@ -596,15 +571,20 @@ mod tests {
         }
     }
 
-    /// The continuations of split samples ([`PathSampler::split`]): a replicate's first 2^m
-    /// samples split four ways at dimension 3 give 2^m · 4 points in each later dimension,
-    /// and those are a (0, m + 2, 2)-net, as 2^m · 4 unsplit samples' would be. (Indexed
-    /// i + j instead of i·4 + j, neighbouring samples' continuations overlap, and this fails.)
     /// A pixel's direction pairs are 4-D nets: 16 samples put one pair in each of the
     /// 2×2×2×2 cells, 64 one in each 4×4×2×2 cell (as the first four Sobol components do),
     /// whether drawn straight from the sample or from one continuation of a split, with other
     /// numbers drawn between the pair's members. Padded pairs, each direction shuffled on its
     /// own, fail this.
+    /// The recurrences give Joe & Kuo's direction numbers: m = 1, 3, 3, 9, 29, 23 for the
+    /// third component and 1, 3, 1, 5, 31, 29 for the fourth, as fractions m_k / 2^k.
+    #[test]
+    fn paired_components_have_the_published_direction_numbers() {
+        let published = |m: [u32; 6]| -> Vec<u32> { (0..6).map(|k| m[k] << (31 - k)).collect() };
+        assert_eq!(SOBOL_THIRD[..6], published([1, 3, 3, 9, 29, 23])[..]);
+        assert_eq!(SOBOL_FOURTH[..6], published([1, 3, 1, 5, 31, 29])[..]);
+    }
+
     #[test]
     fn direction_pairs_are_four_dimensional_nets() {
         for (n, cells) in [(16u32, [2u32, 2, 2, 2]), (64, [4, 4, 2, 2])] {
@@ -636,6 +616,10 @@ mod tests {
         }
     }
 
+    /// The continuations of split samples ([`PathSampler::split`]): a replicate's first 2^m
+    /// samples split four ways at dimension 3 give 2^m · 4 points in each later dimension,
+    /// and those are a (0, m + 2, 2)-net, as 2^m · 4 unsplit samples' would be. (Indexed
+    /// i + j instead of i·4 + j, neighbouring samples' continuations overlap, and this fails.)
     #[test]
     fn split_continuations_are_a_net_in_each_later_dimension() {
         let splits = 4u32;
