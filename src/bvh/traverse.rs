@@ -141,25 +141,25 @@ pub fn traverse_with_short_stack(
     let mut trail = Trail { passed: 0, single: 0 };
     let (mut current, mut depth) = (0u32, 0u32);
     loop {
-        let node = &nodes[current as usize];
-        let count = node.triangle_count();
-        if count > 0 {
-            if visit(node.offset, count, ray) {
-                return;
-            }
-        } else {
+        // Down through interior nodes until a leaf, or a node none of whose children the ray
+        // needs (the kernel's while-while loop: the same visits in the same order).
+        let mut node = &nodes[current as usize];
+        while node.triangle_count() == 0 {
             let step = child_step(nodes, &pre, ray.t_max, current, depth, trail);
             trail = step.trail;
-            if let Some(next) = step.next {
-                if let Some(far) = step.deferred {
-                    stack.copy_within(0..SHORT_STACK_SIZE - 1, 1);
-                    stack[0] = far;
-                    sp = (sp + 1).min(stack_limit);
-                }
-                current = next;
-                depth += 1;
-                continue;
+            let Some(next) = step.next else { break };
+            if let Some(far) = step.deferred {
+                stack.copy_within(0..SHORT_STACK_SIZE - 1, 1);
+                stack[0] = far;
+                sp = (sp + 1).min(stack_limit);
             }
+            current = next;
+            depth += 1;
+            node = &nodes[current as usize];
+        }
+        let count = node.triangle_count();
+        if count > 0 && visit(node.offset, count, ray) {
+            return;
         }
         // `current` is done, and with it every ancestor whose last child it was.
         if depth == 0 {
