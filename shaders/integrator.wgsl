@@ -363,9 +363,8 @@ fn next_event(si: SurfaceInteraction, bsdf: GltfBsdf, beta: vec3<f32>) -> vec3<f
     if (!has_non_delta(bsdf) || frame.light_count == 0u) {
         return vec3<f32>(0.0);
     }
-    let u_select = rng_next_2d();
     let u_light = rng_next_2d();
-    let ls = sample_light(si.p, si.p_error, si.n_geometric, u_select, u_light);
+    let ls = sample_light(si.p, si.p_error, si.n_geometric, u_light);
     if (!ls.valid) {
         return vec3<f32>(0.0);
     }

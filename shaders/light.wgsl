@@ -22,6 +22,30 @@ fn choose_light(u: vec2<f32>) -> u32 {
     return lights[i].alias_index;
 }
 
+// The largest f32 below 1 (CPU twin: ONE_MINUS_EPSILON in src/light/mod.rs).
+const ONE_MINUS_EPSILON: f32 = 0.99999994;
+
+// Twin of `choose_light_reusing`: the light chosen by the single uniform `u` (the alias
+// table's column ⌊u·n⌋, its coin the fraction left), with `u` rescaled to a uniform of its
+// own in [0, 1) for the point on the light.
+struct LightChoice {
+    index: u32,
+    u: f32,
+}
+
+fn choose_light_reusing(u: f32) -> LightChoice {
+    let n = frame.light_count;
+    let x = u * f32(n);
+    let column = min(u32(x), n - 1u);
+    let coin = clamp(x - f32(column), 0.0, ONE_MINUS_EPSILON);
+    let p = lights[column].alias_probability;
+    // coin < p implies p > 0, and coin ≥ p that p < 1: neither division is by zero.
+    if (coin < p) {
+        return LightChoice(column, min(coin / p, ONE_MINUS_EPSILON));
+    }
+    return LightChoice(lights[column].alias_index, min((coin - p) / (1.0 - p), ONE_MINUS_EPSILON));
+}
+
 // An emissive-triangle light's unit normal (xyz) and area (w), stored when the scene was
 // flattened (CPU twin: triangle_light_normal_area in src/light/mod.rs).
 fn triangle_light_normal_area(light: Light) -> vec4<f32> {
@@ -48,11 +72,14 @@ fn spot_falloff(light: Light, cos_theta: f32) -> f32 {
     return t * t;
 }
 
-fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_select: vec2<f32>, u_point: vec2<f32>) -> LightSample {
+// `u_point_in.x` also chooses the light (`choose_light_reusing`).
+fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_point_in: vec2<f32>) -> LightSample {
     if (frame.light_count == 0u) {
         return no_light_sample();
     }
-    let light = lights[choose_light(u_select)];
+    let choice = choose_light_reusing(u_point_in.x);
+    let u_point = vec2<f32>(choice.u, u_point_in.y);
+    let light = lights[choice.index];
     let pmf = light.pmf;
     if (pmf <= 0.0) {
         return no_light_sample();

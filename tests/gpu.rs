@@ -610,6 +610,25 @@ fn textured_models_gpu_match_cpu() {
     }
 }
 
+/// The light choice reuses the light point's first number (`choose_light_reusing`). Where
+/// lights differ in power, the alias table's columns are split between two lights, and both
+/// arms of the rescaling run: EmissiveStrengthTest's cubes glow at five strengths, under the
+/// studio environment (one more light). The bundled scenes' lamps are pairs of equal
+/// triangles, whose columns are whole, so there only the first arm runs.
+#[test]
+fn lights_of_unequal_power_same_seed_agree() {
+    let Some(assets) = common::assets() else { return };
+    let model = assets.join("khronos/EmissiveStrengthTest/EmissiveStrengthTest.glb");
+    let (mut scene, _) = pathlight::scene::load(&model).unwrap();
+    scene.environment =
+        Some(pathlight::light::EnvironmentDesc::load(&assets.join("env/studio_small_05_1k.hdr")).unwrap());
+    let view = pathlight::scene::ViewSettings { camera: None, aspect: 1.0 };
+    let flat = pathlight::scene::FlatScene::build(&scene, &view).unwrap();
+    let split_columns = flat.lights.iter().filter(|l| l.alias_probability < 1.0).count();
+    assert!(split_columns > 0, "every alias column whole: the second arm is not exercised");
+    same_seed_agrees_scene("EmissiveStrengthTest", &flat, 1e-3);
+}
+
 #[test]
 fn short_stack_size_does_not_change_the_image() {
     // The traversal keeps up to SHORT_STACK_SIZE deferred children in registers, pushing the

@@ -76,14 +76,7 @@ fn area_light_directions_follow_the_mis_density() {
         1_000_000,
         11,
         |r| {
-            let ls = sample_light(
-                scene.light_arrays(),
-                Vec3::ZERO,
-                Vec3::ZERO,
-                Vec3::Z,
-                r.next_2d(),
-                r.next_2d(),
-            )?;
+            let ls = sample_light(scene.light_arrays(), Vec3::ZERO, Vec3::ZERO, Vec3::Z, r.next_2d())?;
             (!ls.is_delta).then_some(ls.wi)
         },
         &|w| light_pdf_along(&scene, w) as f64,
@@ -112,8 +105,7 @@ fn sampled_pdf_equals_the_pdf_of_the_hit() {
     let mut rng = Rng::new(3, 1, 4, 1);
     let mut checked = 0;
     for _ in 0..100_000 {
-        let Some(ls) =
-            sample_light(scene.light_arrays(), Vec3::ZERO, Vec3::ZERO, Vec3::Z, rng.next_2d(), rng.next_2d())
+        let Some(ls) = sample_light(scene.light_arrays(), Vec3::ZERO, Vec3::ZERO, Vec3::Z, rng.next_2d())
         else {
             continue;
         };

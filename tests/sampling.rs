@@ -402,6 +402,49 @@ fn alias_table_sampling_matches_weights() {
     assert!(r.p_value > ALPHA, "alias sampling: chi2 {:.1} dof {} p = {:.3e}", r.chi2, r.dof, r.p_value);
 }
 
+/// `choose_light_reusing` chooses lights by their weights, and the number it hands back is
+/// uniform given the light: one chi-square over (light, tenth of [0, 1)) cells. Dropping the
+/// rescaling (handing back the column's fraction unstretched) fails it, as does a coin that
+/// ignores the alias table.
+#[test]
+fn light_choice_reusing_its_number_matches_weights_and_leaves_a_uniform() {
+    let weights = [1.0f64, 2.0, 3.0, 4.0, 10.0, 0.5, 7.0];
+    let table = build_alias_table(&weights).unwrap();
+    let lights: Vec<pathlight::scene::layout::Light> = table
+        .iter()
+        .map(|e| pathlight::scene::layout::Light {
+            alias_probability: e.probability,
+            alias_index: e.alias,
+            pmf: e.pmf,
+            ..Default::default()
+        })
+        .collect();
+    const BINS: usize = 10;
+    let mut observed = vec![0.0f64; weights.len() * BINS];
+    let mut rng = Rng::new(5, 6, 7, 8);
+    for _ in 0..SAMPLES {
+        let (index, u) = pathlight::light::choose_light_reusing(&lights, rng.next_1d());
+        assert!((0.0..1.0).contains(&u), "rescaled number {u} outside [0, 1)");
+        observed[index * BINS + (u * BINS as f32) as usize] += 1.0;
+    }
+    let total: f64 = weights.iter().sum();
+    let expected: Vec<f64> =
+        weights.iter().flat_map(|w| [w / total * SAMPLES as f64 / BINS as f64; BINS]).collect();
+    let r = chi2_test(&observed, &expected, 5.0);
+    assert!(
+        r.p_value > ALPHA,
+        "light choice reusing: chi2 {:.1} dof {} p = {:.3e}",
+        r.chi2,
+        r.dof,
+        r.p_value
+    );
+    // The ends of [0, 1) stay inside it.
+    for u in [0.0, f32::MIN_POSITIVE, 0.5, 1.0 - f32::EPSILON / 2.0] {
+        let (index, rescaled) = pathlight::light::choose_light_reusing(&lights, u);
+        assert!(index < lights.len() && (0.0..1.0).contains(&rescaled), "u {u}: {index}, {rescaled}");
+    }
+}
+
 #[test]
 fn smooth_glass_at_grazing_incidence_stays_finite_and_reflects_almost_all() {
     // wo.z from 1e-2 down to 1e-7 (and exactly 0, edge-on): no NaN, no infinite weight, and

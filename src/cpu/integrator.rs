@@ -429,17 +429,9 @@ fn next_event(
     if !bsdf.has_non_delta() || scene.lights.is_empty() {
         return Vec3::ZERO;
     }
-    // The light choice and the point on the light are consecutive dimensions. With one
-    // light there is nothing to choose (the kernel draws the number anyway; skipping it
-    // keeps the stream): most environment-lit scenes.
-    let (u_select, u_light) = if scene.lights.len() > 1 {
-        let u_select = rng.next_2d();
-        (u_select, rng.next_2d())
-    } else {
-        rng.skip_2d();
-        (Vec2::ZERO, rng.next_2d())
-    };
-    let Some(ls) = sample_light(tracer.lights, si.p, si.p_error, si.n_geometric, u_select, u_light) else {
+    // One 2-D point chooses the light and the point on it (`choose_light_reusing`).
+    let u_light = rng.next_2d();
+    let Some(ls) = sample_light(tracer.lights, si.p, si.p_error, si.n_geometric, u_light) else {
         return Vec3::ZERO;
     };
     let wi = si.frame.to_local(ls.wi);

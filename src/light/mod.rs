@@ -59,6 +59,34 @@ pub fn choose_light(lights: &[Light], u: Vec2) -> usize {
     }
 }
 
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// Chooses a light with probability `pmf` from the single uniform `u`, and returns it with
+/// `u` rescaled to a uniform of its own in [0, 1): the column is ⌊u·n⌋ and the coin the
+/// fraction left, which is then stretched over whichever side of the coin it fell on.
+/// Given the light, the rescaled number is uniform and independent of every other number,
+/// so the light's point may be drawn from it (Mitsuba 3's `Scene::sample_emitter` reuses
+/// its sample so). Drawing the point's first coordinate and the choice from one 2-D point
+/// keeps that point stratified across the lights it lands on: the Cornell box's lamp is two
+/// triangles, and choosing between them by a number of its own had left each triangle's
+/// points only partly stratified (its relMSE 6–7% lower, bench/RESULTS.md, twenty-third
+/// session). WGSL twin: `choose_light_reusing` in shaders/light.wgsl.
+pub fn choose_light_reusing(lights: &[Light], u: f32) -> (usize, f32) {
+    let n = lights.len();
+    let x = u * n as f32;
+    let column = (x as usize).min(n - 1);
+    let coin = (x - column as f32).clamp(0.0, ONE_MINUS_EPSILON);
+    let p = lights[column].alias_probability;
+    // coin < p implies p > 0, and coin ≥ p that p < 1: neither division is by zero.
+    let (index, rescaled) = if coin < p {
+        (column, coin / p)
+    } else {
+        (lights[column].alias_index as usize, (coin - p) / (1.0 - p))
+    };
+    (index, rescaled.min(ONE_MINUS_EPSILON))
+}
+
 /// Unit geometric normal (winding) and area of a triangle.
 pub fn triangle_normal_area(t: &Triangle) -> (Vec3, f32) {
     let c = (Vec3::from(t.p1) - Vec3::from(t.p0)).cross(Vec3::from(t.p2) - Vec3::from(t.p0));
@@ -90,20 +118,21 @@ pub fn sample_triangle_point(t: &Triangle, u: Vec2) -> (Vec3, Vec3, Vec3) {
 }
 
 /// Samples incident light at surface point `p` (error bound `p_error`, geometric normal
-/// `n_geometric`, used only to offset the shadow ray).
+/// `n_geometric`, used only to offset the shadow ray). `u_point.x` also chooses the light
+/// ([`choose_light_reusing`]).
 #[inline(always)]
 pub fn sample_light(
     arrays: LightArrays,
     p: Vec3,
     p_error: Vec3,
     n_geometric: Vec3,
-    u_select: Vec2,
     u_point: Vec2,
 ) -> Option<LightSample> {
     if arrays.lights.is_empty() {
         return None;
     }
-    let index = choose_light(arrays.lights, u_select);
+    let (index, u_x) = choose_light_reusing(arrays.lights, u_point.x);
+    let u_point = Vec2::new(u_x, u_point.y);
     let light = &arrays.lights[index];
     let pmf = light.pmf;
     // Built by the host from finite powers: never NaN.
