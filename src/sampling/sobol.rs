@@ -1,12 +1,13 @@
 //! The path sampler: where each of a path's random numbers comes from.
 //!
 //! Default: padded, shuffled, Owen-scrambled Sobol points (Burley 2020, "Practical Hash-based
-//! Owen Scrambling", JCGT 9(4)). Every 2-D request of a path (camera jitter, light choice,
-//! light point, BSDF direction, …) gets the next *dimension*; within one dimension the
-//! pixel's samples are the first two Sobol components — a (0,2)-sequence — so every
-//! power-of-two prefix of them is stratified like a (0,m,2)-net. Each dimension shuffles the
-//! sample order with its own seed (a nested uniform scramble of the index), which pads the
-//! dimensions together without correlating them, and Owen-scrambles both coordinates.
+//! Owen Scrambling", JCGT 9(4)). Every 2-D request of a path (camera jitter, light sample,
+//! whose one point chooses the light and the point on it, BSDF direction, …) gets the next
+//! *dimension*; within one dimension the pixel's samples are the first two Sobol components
+//! — a (0,2)-sequence — so every power-of-two prefix of them is stratified like a
+//! (0,m,2)-net. Each dimension shuffles the sample order with its own seed (a nested uniform
+//! scramble of the index), which pads the dimensions together without correlating them, and
+//! Owen-scrambles both coordinates.
 //! Paths of any length are covered: dimensions are never exhausted. The CPU computes a
 //! path's dimensions eight at a time, 8-wide (`sobol_batch`), and hands them out in order.
 //!
