@@ -377,12 +377,10 @@ fn uniform_triangle_sampling_is_uniform() {
     assert!(r.p_value > ALPHA, "triangle sampling: p = {:.3e}", r.p_value);
 }
 
-#[test]
-fn alias_table_sampling_matches_weights() {
-    let weights: Vec<f64> =
-        (0..1000).map(|i| ((i * 7919) % 101) as f64 + if i % 13 == 0 { 500.0 } else { 0.0 }).collect();
-    let table = build_alias_table(&weights).unwrap();
-    let lights: Vec<pathlight::scene::layout::Light> = table
+/// Lights that carry only the alias table of `weights` (what the light choice reads).
+fn lights_weighted(weights: &[f64]) -> Vec<pathlight::scene::layout::Light> {
+    build_alias_table(weights)
+        .unwrap()
         .iter()
         .map(|e| pathlight::scene::layout::Light {
             alias_probability: e.probability,
@@ -390,7 +388,14 @@ fn alias_table_sampling_matches_weights() {
             pmf: e.pmf,
             ..Default::default()
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn alias_table_sampling_matches_weights() {
+    let weights: Vec<f64> =
+        (0..1000).map(|i| ((i * 7919) % 101) as f64 + if i % 13 == 0 { 500.0 } else { 0.0 }).collect();
+    let lights = lights_weighted(&weights);
     let mut observed = vec![0.0f64; weights.len()];
     let mut rng = Rng::new(2, 2, 2, 2);
     for _ in 0..SAMPLES {
@@ -409,16 +414,7 @@ fn alias_table_sampling_matches_weights() {
 #[test]
 fn light_choice_reusing_its_number_matches_weights_and_leaves_a_uniform() {
     let weights = [1.0f64, 2.0, 3.0, 4.0, 10.0, 0.5, 7.0];
-    let table = build_alias_table(&weights).unwrap();
-    let lights: Vec<pathlight::scene::layout::Light> = table
-        .iter()
-        .map(|e| pathlight::scene::layout::Light {
-            alias_probability: e.probability,
-            alias_index: e.alias,
-            pmf: e.pmf,
-            ..Default::default()
-        })
-        .collect();
+    let lights = lights_weighted(&weights);
     const BINS: usize = 10;
     let mut observed = vec![0.0f64; weights.len() * BINS];
     let mut rng = Rng::new(5, 6, 7, 8);

@@ -572,11 +572,6 @@ mod tests {
         }
     }
 
-    /// A pixel's direction pairs are 4-D nets: 16 samples put one pair in each of the
-    /// 2×2×2×2 cells, 64 one in each 4×4×2×2 cell (as the first four Sobol components do),
-    /// whether drawn straight from the sample or from one continuation of a split, with other
-    /// numbers drawn between the pair's members. Padded pairs, each direction shuffled on its
-    /// own, fail this.
     /// The recurrences give Joe & Kuo's direction numbers: m = 1, 3, 3, 9, 29, 23 for the
     /// third component and 1, 3, 1, 5, 31, 29 for the fourth, as fractions m_k / 2^k.
     #[test]
@@ -586,6 +581,11 @@ mod tests {
         assert_eq!(SOBOL_FOURTH[..6], published([1, 3, 1, 5, 31, 29])[..]);
     }
 
+    /// A pixel's direction pairs are 4-D nets: 16 samples put one pair in each of the
+    /// 2×2×2×2 cells, 64 one in each 4×4×2×2 cell (as the first four Sobol components do),
+    /// whether drawn straight from the sample or from one continuation of a split, with other
+    /// numbers drawn between the pair's members. Padded pairs, each direction shuffled on its
+    /// own, fail this.
     #[test]
     fn direction_pairs_are_four_dimensional_nets() {
         for (n, cells) in [(16u32, [2u32, 2, 2, 2]), (64, [4, 4, 2, 2])] {
