@@ -40,7 +40,7 @@ impl Default for RenderSettings {
             spp: 64,
             seed: 0,
             max_depth: None,
-            rr_min_depth: 3,
+            rr_min_depth: crate::cpu::DEFAULT_RR_MIN_DEPTH,
             sampler: SamplerKind::default(),
             splits: 1,
             light_tracing: false,

@@ -111,7 +111,8 @@ fn glass_furnace_with_and_without_roulette() {
         assert_eq!(film.total_rejected(), 0);
         common::image_mean_and_standard_error(&film)
     };
-    // Roulette from depth 3 (the default), and none (a start beyond the 1024-bounce guard).
+    // Roulette from depth 3 (where it thins paths out sooner than the default, so it tests
+    // more of them), and none (a start beyond the 1024-bounce guard).
     let with = render(11, 3);
     let without = render(12, 5000);
     for c in 0..3 {

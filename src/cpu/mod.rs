@@ -7,8 +7,8 @@ mod light_tracing;
 mod renderer;
 
 pub use integrator::{
-    first_hit, radiance, surface_interaction, IntegratorSettings, SurfaceInteraction, MAX_BOUNCES_GUARD,
-    RR_ANY_BOUNCE_DEPTH, RR_MAX_SURVIVAL,
+    first_hit, radiance, surface_interaction, IntegratorSettings, SurfaceInteraction, DEFAULT_RR_MIN_DEPTH,
+    MAX_BOUNCES_GUARD, RR_ANY_BOUNCE_DEPTH, RR_MAX_SURVIVAL,
 };
 pub use light_tracing::{
     camera_supports_light_tracing, caustic_from_fixed, caustic_to_fixed, scene_supports_light_tracing,
