@@ -42,17 +42,13 @@ fn render(
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let value = |name: &str, default: u32| {
-        args.iter()
-            .position(|a| a == name)
-            .and_then(|i| args.get(i + 1))
-            .map_or(default, |v| v.parse().unwrap())
-    };
+    // The word after option `name`.
+    let text = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
+    let value = |name: &str, default: u32| text(name).map_or(default, |v| v.parse().unwrap());
     let (size, spp, reference_spp) =
         (value("--size", 96), value("--spp", 32), value("--reference-spp", 2048));
     let seeds = value("--seeds", 3);
     let splits = value("--splits", pathlight::render::CPU_DEFAULT_SPLITS);
-    let text = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
     let depths: Vec<u32> = text("--depths").map_or(vec![1, 2, 3, 4, 5, 6, 8], |list| {
         list.split(',').map(|d| d.parse().expect("--depths: a comma-separated list of depths")).collect()
     });
@@ -65,6 +61,10 @@ fn main() {
         .collect();
     if scenes.is_empty() {
         scenes = vec!["scenes/cornell-box.gltf".into(), "scenes/glass-smooth.gltf".into()];
+    }
+    if reference_file.is_some() && scenes.len() != 1 {
+        eprintln!("--reference is one scene's image: give exactly one scene with it");
+        std::process::exit(2);
     }
     println!("{splits} continuations per camera sample\n");
     println!("| scene | roulette from depth | relMSE at {spp} spp | seconds | efficiency 1/(relMSE·s) |");
