@@ -175,6 +175,7 @@ struct SplitVertex {
 // starts from the saved vertex when the one before it ends.
 @compute @workgroup_size(8, 8, 1)
 fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
+    load_dispatch_constants();
     let px = band_pixel(gid);
     if (px.z == 0u || frame.samples == 0u) {
         return;
@@ -394,6 +395,7 @@ fn next_event(si: SurfaceInteraction, bsdf: GltfBsdf, beta: vec3<f32>) -> vec3<f
 // What the camera ray of sample 0 hits: the first-hit AOV (distance, normal, albedo).
 @compute @workgroup_size(8, 8, 1)
 fn first_hit(@builtin(global_invocation_id) gid: vec3<u32>) {
+    load_dispatch_constants();
     let px = band_pixel(gid);
     if (px.z == 0u) {
         return;

@@ -12,6 +12,7 @@ const LIGHT_PATH_STREAM: u32 = 0xffffffffu;
 // number of paths, into `caustics`, which the host clears before the pass.
 @compute @workgroup_size(8, 8, 1)
 fn trace_caustics(@builtin(global_invocation_id) gid: vec3<u32>) {
+    load_dispatch_constants();
     let px = band_pixel(gid);
     if (px.z == 0u) {
         return;
