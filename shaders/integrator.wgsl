@@ -150,11 +150,16 @@ struct PathState {
 }
 
 // Where a split sample's continuations start (the CPU twin's `radiance` explains
-// splitting): the vertex, the path up to it, its sampler state and the radiance gathered
-// before the split.
+// splitting): the hit that made the vertex and the cone width it was shaded with, the path up
+// to it, its sampler state and the radiance gathered before the split. A continuation shades
+// the vertex again from its hit, with the same operations and so the same bits, instead of
+// keeping the surface and its BSDF (some 70 values) live across the loop: on lavapipe, whose
+// `if` only masks lanes and runs both arms, the copies in and out cost every bounce, and
+// shading the saved hit costs nothing extra, since the bounce shades a hit anyway. Split
+// renders 3–5% faster there (bench/RESULTS.md, twenty-fifth session).
 struct SplitVertex {
-    si: SurfaceInteraction,
-    bsdf: GltfBsdf,
+    hit: ClosestHit,
+    cone_width: f32,
     path: PathState,
     rng: vec4<u32>,
     l_prefix: vec3<f32>,
@@ -215,13 +220,14 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
         // radiance in `l`), as a `break` ends the CPU twin's bounce loop.
         var path_ended = true;
         loop {
-            var si: SurfaceInteraction;
-            var bsdf: GltfBsdf;
-            if (resume_split) {
+            var hit: ClosestHit;
+            var cone_width: f32;
+            let resuming = resume_split;
+            if (resuming) {
                 // The next continuation: from the split vertex, with its own numbers.
                 resume_split = false;
-                si = split_vertex.si;
-                bsdf = split_vertex.bsdf;
+                hit = split_vertex.hit;
+                cone_width = split_vertex.cone_width;
                 path = split_vertex.path;
                 sampler_split(split_vertex.rng, split_j, frame.splits);
             } else {
@@ -229,7 +235,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                 if (FEATURE_ALPHA) {
                     alpha_seed = rng_next_u32();
                 }
-                let hit = intersect_closest(path.ray, alpha_seed);
+                hit = intersect_closest(path.ray, alpha_seed);
                 if (hit.triangle == INVALID_INDEX) {
                     if (FEATURE_ENVIRONMENT && environment.present != 0u) {
                         let env = environment_lookup(path.ray.direction);
@@ -242,10 +248,14 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                     }
                     break;
                 }
-                si = surface_interaction(path.ray, hit, cone.x + cone.y * (path.travelled + hit.t));
+                cone_width = cone.x + cone.y * (path.travelled + hit.t);
+            }
+            let si = surface_interaction(path.ray, hit, cone_width);
+            let untextured = materials[si.material];
+            let material = textured_material(untextured, si.uv, si.lod);
+            let bsdf = gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal);
+            if (!resuming) {
                 path.travelled += si.distance;
-                let untextured = materials[si.material];
-                let material = textured_material(untextured, si.uv, si.lod);
 
                 if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
                     path.beta *= exp(-material.attenuation_coefficient * si.distance);
@@ -271,7 +281,6 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                 if (path.depth >= frame.max_depth || path.depth >= MAX_BOUNCES_GUARD) {
                     break;
                 }
-                bsdf = gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal);
                 l += next_event(si, bsdf, path.beta);
 
                 if (SPLITTING && frame.splits > 1u && !split && has_non_delta(bsdf)) {
@@ -279,7 +288,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                     split = true;
                     split_j = 0u;
                     split_sum = vec3<f32>(0.0);
-                    split_vertex = SplitVertex(si, bsdf, path, rng_s, l);
+                    split_vertex = SplitVertex(hit, cone_width, path, rng_s, l);
                     l = vec3<f32>(0.0);
                     sampler_split(rng_s, 0u, frame.splits);
                 }
