@@ -1,17 +1,15 @@
 // Resources of the megakernel (`GpuContext::new` in src/gpu/context.rs creates the matching
 // layout).
 //
-// Every binding is a storage buffer, the small per-dispatch ones too: Mesa's lavapipe (22.3)
+// The per-dispatch bindings are storage buffers, not uniform ones: Mesa's lavapipe (22.3)
 // inlines the values of uniform buffers that steer branches and loops into the shader and
 // JIT-compiles a new variant of the whole megakernel each time such a binding is re-bound,
 // keeping every variant. With `camera` and `frame` as uniforms that was one compile and about
 // 1.2 MB per submit, for the life of the device (issue 6; tests/gpu_memory.rs).
 
-@group(0) @binding(0) var<storage, read> nodes: array<BvhNode>;
-@group(0) @binding(1) var<storage, read> triangles: array<Triangle>;
+// Bindings 0 `nodes`, 1 `triangles`, 3 `materials` and 4 `lights` are declared after the
+// files, each as a storage or a uniform array (src/gpu/tables.rs says when and why).
 @group(0) @binding(2) var<storage, read> normals: array<TriangleNormals>;
-@group(0) @binding(3) var<storage, read> materials: array<Material>;
-@group(0) @binding(4) var<storage, read> lights: array<Light>;
 @group(0) @binding(5) var<storage, read> camera_buffer: Camera;
 @group(0) @binding(6) var<storage, read> frame_buffer: FrameParams;
 @group(0) @binding(7) var<storage, read_write> film: array<FilmPixel>;

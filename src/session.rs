@@ -140,8 +140,9 @@ fn make_backend(
             let backend = GpuBackend::new(ctx.clone(), flat, settings)?;
             let film = backend.film_buffer().clone();
             let detail = format!(
-                "kernel specialised to [{}] built in {:.2} s, scene uploaded in {:.3} s",
+                "kernel specialised to [{}], {}, built in {:.2} s, scene uploaded in {:.3} s",
                 flat.features.describe(),
+                backend.tables().describe(),
                 backend.kernel_build_seconds(),
                 backend.upload_seconds
             );

@@ -630,6 +630,70 @@ fn lights_of_unequal_power_same_seed_agree() {
 }
 
 #[test]
+fn uniform_and_storage_tables_give_the_same_image() {
+    // A software adapter reads the scene's small tables from uniform buffers where they fit
+    // (src/gpu/tables.rs); the same loads from a storage buffer return the same records, so
+    // every form must leave every pixel's statistics bit for bit the same. Split samples (the
+    // split vertex is re-shaded from its hit) and the light tracer's kernel are covered: the
+    // caustic-mirror scene light-traces its caustics.
+    let Some(ctx) = common::gpu() else { return };
+    let size = 24;
+    for (file, splits) in [("cornell-box.gltf", 3), ("hard/caustic-mirror.gltf", 1)] {
+        let scene = common::flat_scene(&common::scene(file), size, size);
+        let s = RenderSettings { splits, light_tracing: true, ..settings(size, 4, 9) };
+        let render = |tables: pathlight::gpu::UniformTables| {
+            let kernel = ctx
+                .kernel_variant(
+                    scene.features,
+                    s.splitting(),
+                    pathlight::bvh::SHORT_STACK_SIZE as u32,
+                    tables,
+                )
+                .unwrap();
+            let mut backend = GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &s).unwrap();
+            (common::render(&mut backend, 4), backend.light_traces_caustics())
+        };
+        let (storage, light_traced) = render(pathlight::gpu::UniformTables::default());
+        assert_eq!(light_traced, file.contains("caustic"), "{file}: light tracing");
+        let some = pathlight::gpu::UniformTables { nodes: true, materials: true, ..Default::default() };
+        for tables in [pathlight::gpu::UniformTables::ALL, some] {
+            let (uniform, _) = render(tables);
+            let differing = storage
+                .pixels
+                .iter()
+                .zip(&uniform.pixels)
+                .filter(|(a, b)| bytemuck::bytes_of(*a) != bytemuck::bytes_of(*b))
+                .count();
+            assert_eq!(differing, 0, "{file}, {tables:?}: {differing} of {} pixels differ", size * size);
+        }
+    }
+    // Which forms an adapter picks: on a software one every table that fits (the Cornell
+    // box's all do; the glass scene's 20,187 nodes and 10,252 triangles do not), on a
+    // hardware GPU none.
+    let small = common::flat_scene(&common::scene("cornell-box.gltf"), size, size);
+    let large = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
+    if ctx.prefers_uniform_tables() {
+        assert_eq!(ctx.tables_for(&small), pathlight::gpu::UniformTables::ALL);
+        let t = ctx.tables_for(&large);
+        assert!(!t.nodes && !t.triangles && t.materials && t.lights, "{t:?}");
+    } else {
+        assert_eq!(ctx.tables_for(&small), pathlight::gpu::UniformTables::default());
+    }
+    // A kernel whose uniform tables cannot hold a scene is refused, naming the table.
+    let kernel = ctx
+        .kernel_variant(
+            large.features,
+            false,
+            pathlight::bvh::SHORT_STACK_SIZE as u32,
+            pathlight::gpu::UniformTables::ALL,
+        )
+        .unwrap();
+    let e =
+        GpuBackend::with_kernel(ctx.clone(), kernel, &large, &settings(size, 1, 1)).map(|_| ()).unwrap_err();
+    assert!(e.to_string().contains("nodes from a uniform buffer of 2048 records"), "{e}");
+}
+
+#[test]
 fn short_stack_size_does_not_change_the_image() {
     // The traversal keeps up to SHORT_STACK_SIZE deferred children in registers, pushing the
     // oldest out, and restarts from the root along its trail when they run out

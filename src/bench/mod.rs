@@ -187,12 +187,18 @@ pub fn bench_scene(
         push(b.name(), "-", None, m);
     }
     if let Some(ctx) = gpu {
-        for (label, features) in [("specialised", flat.features), ("general", SceneFeatures::ALL)] {
-            let kernel = ctx.kernel(features, settings.splitting())?;
+        // The kernel `render` uses (specialised, its tables in the adapter's preferred forms)
+        // and the general one (every feature, every table a storage buffer).
+        let specialised = ctx.kernel_for_scene(flat, settings.splitting())?;
+        let general = ctx.kernel(SceneFeatures::ALL, settings.splitting())?;
+        for (label, features, kernel) in
+            [("specialised", flat.features, specialised), ("general", SceneFeatures::ALL, general)]
+        {
             let build = kernel.build_seconds;
+            let tables = kernel.tables.describe();
             let mut b = GpuBackend::with_kernel(ctx.clone(), kernel, flat, settings)?;
             let m = measure(&mut b, spp, pixels)?;
-            push(ctx.name(), &format!("{label} [{}]", features.describe()), Some(build), m);
+            push(ctx.name(), &format!("{label} [{}; {tables}]", features.describe()), Some(build), m);
         }
     }
     Ok(rows)

@@ -8,9 +8,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use crate::error::{Error, Result};
-use crate::scene::SceneFeatures;
+use crate::scene::{FlatScene, SceneFeatures};
 
 use super::shader;
+use super::tables::UniformTables;
 
 /// The instance pathlight uses: Vulkan only; debug/validation flags follow the build and the
 /// `WGPU_DEBUG` / `WGPU_VALIDATION` environment variables.
@@ -83,7 +84,23 @@ pub struct Kernel {
     /// Can it split samples (`RenderSettings::splits` > 1)? Built without, the kernel has no
     /// split vertex to keep live across its loop.
     pub splitting: bool,
+    /// The forms it reads the scene's small tables in; a scene's bind group must match.
+    pub tables: UniformTables,
+    /// The module and layouts of those forms.
+    pub(crate) source: Arc<KernelModule>,
 }
+
+/// The kernel's shader module for one [`UniformTables`], with the bind-group and pipeline
+/// layouts whose bindings 0, 1, 3 and 4 take the matching buffer types.
+pub(crate) struct KernelModule {
+    module: wgpu::ShaderModule,
+    pub(crate) bind_group_layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+}
+
+/// What a kernel is cached under: the scene features it is specialised to, whether it can
+/// split, its traversal's short-stack limit and its tables' forms.
+type KernelKey = (SceneFeatures, bool, u32, UniformTables);
 
 /// A device ready to render, with its compiled kernels.
 pub struct GpuContext {
@@ -91,16 +108,14 @@ pub struct GpuContext {
     pub limits: wgpu::Limits,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
-    pub bind_group_layout: wgpu::BindGroupLayout,
-    pipeline_layout: wgpu::PipelineLayout,
-    module: wgpu::ShaderModule,
     /// Errors wgpu reported outside any error scope (kept, then returned by `check`).
     uncaptured: Arc<Mutex<Vec<String>>>,
-    /// By the scene features, splitting and the short-stack limit they were built for.
-    kernels: Mutex<HashMap<(SceneFeatures, bool, u32), Arc<Kernel>>>,
-    /// The light tracer's kernels (`trace_caustics`), by the scene features they were
-    /// built for: built only for scenes whose caustics are light traced.
-    caustic_kernels: Mutex<HashMap<SceneFeatures, Arc<wgpu::ComputePipeline>>>,
+    /// The kernel's module and layouts per table forms, made on first use.
+    modules: Mutex<HashMap<UniformTables, Arc<KernelModule>>>,
+    kernels: Mutex<HashMap<KernelKey, Arc<Kernel>>>,
+    /// The light tracer's kernels (`trace_caustics`), by the scene features and table forms
+    /// they were built for: built only for scenes whose caustics are light traced.
+    caustic_kernels: Mutex<HashMap<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>>,
 }
 
 /// The scene-feature overrides of shaders/features.wgsl for `features`.
@@ -153,7 +168,30 @@ impl GpuContext {
             }));
         }
 
-        let source = shader::kernel_source();
+        let ctx = GpuContext {
+            info,
+            limits,
+            device,
+            queue,
+            uncaptured,
+            modules: Mutex::new(HashMap::new()),
+            kernels: Mutex::new(HashMap::new()),
+            caustic_kernels: Mutex::new(HashMap::new()),
+        };
+        // The all-storage module now, so that a kernel the driver rejects fails here.
+        ctx.module(UniformTables::default())?;
+        Ok(ctx)
+    }
+
+    /// The kernel's module and layouts reading the tables in the forms `tables`, made on
+    /// first use.
+    fn module(&self, tables: UniformTables) -> Result<Arc<KernelModule>> {
+        let mut modules = self.modules.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(m) = modules.get(&tables) {
+            return Ok(m.clone());
+        }
+        let device = &self.device;
+        let source = shader::kernel_source(tables);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("pathlight megakernel"),
@@ -166,64 +204,73 @@ impl GpuContext {
             return Err(Error::Gpu(format!("kernel rejected by wgpu: {e} {at}")));
         }
 
-        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+        let buffer = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
+            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
             count: None,
         };
-        // Binding numbers as declared in shaders/bindings.wgsl. No uniform buffers: lavapipe
-        // recompiles the kernel for every re-bound uniform (see that file).
+        // Binding numbers as declared in shaders/bindings.wgsl and src/gpu/tables.rs. The
+        // per-dispatch ones are storage buffers: lavapipe recompiles the kernel for every
+        // re-bound uniform that steers its branches (see shaders/bindings.wgsl).
+        let read_write = [7, 8, 9, 19];
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..=19)
+            .map(|binding| {
+                let ty = if tables.is_uniform(binding) {
+                    wgpu::BufferBindingType::Uniform
+                } else {
+                    wgpu::BufferBindingType::Storage { read_only: !read_write.contains(&binding) }
+                };
+                buffer(binding, ty)
+            })
+            .collect();
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("pathlight bindings"),
-            entries: &[
-                storage(0, true),
-                storage(1, true),
-                storage(2, true),
-                storage(3, true),
-                storage(4, true),
-                storage(5, true),
-                storage(6, true),
-                storage(7, false),
-                storage(8, false),
-                storage(9, false),
-                storage(10, true),
-                storage(11, true),
-                storage(12, true),
-                storage(13, true),
-                storage(14, true),
-                storage(15, true),
-                storage(16, true),
-                storage(17, true),
-                storage(18, true),
-                storage(19, false),
-            ],
+            entries: &entries,
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("pathlight"),
             bind_group_layouts: &[Some(&bind_group_layout)],
             immediate_size: 0,
         });
-        Ok(GpuContext {
-            info,
-            limits,
-            device,
-            queue,
-            bind_group_layout,
-            pipeline_layout,
-            module,
-            uncaptured,
-            kernels: Mutex::new(HashMap::new()),
-            caustic_kernels: Mutex::new(HashMap::new()),
-        })
+        let m = Arc::new(KernelModule { module, bind_group_layout, pipeline_layout });
+        modules.insert(tables, m.clone());
+        Ok(m)
     }
 
-    /// The kernels specialised to `features`, able to split samples if `splitting`, built on
-    /// first use and cached.
+    /// Does this adapter read small tables faster from uniform buffers than from storage
+    /// buffers? Software rasterisers (lavapipe) do; on hardware GPUs storage buffers are the
+    /// fast path (src/gpu/tables.rs explains both).
+    pub fn prefers_uniform_tables(&self) -> bool {
+        !self.is_hardware()
+            && self.limits.max_uniform_buffer_binding_size >= super::tables::UNIFORM_TABLE_BYTES as u64
+            && self.limits.max_uniform_buffers_per_shader_stage >= 4
+    }
+
+    /// The table forms this adapter reads `scene` with: each table that fits in a uniform
+    /// buffer where the adapter gains by it, the rest from storage buffers.
+    pub fn tables_for(&self, scene: &FlatScene) -> UniformTables {
+        if self.prefers_uniform_tables() {
+            UniformTables::fitting(scene)
+        } else {
+            UniformTables::default()
+        }
+    }
+
+    /// The kernels `scene` renders with: specialised to its features, reading its tables in
+    /// the forms this adapter prefers ([`Self::tables_for`]), able to split if `splitting`.
+    pub fn kernel_for_scene(&self, scene: &FlatScene, splitting: bool) -> Result<Arc<Kernel>> {
+        self.kernel_variant(
+            scene.features,
+            splitting,
+            crate::bvh::SHORT_STACK_SIZE as u32,
+            self.tables_for(scene),
+        )
+    }
+
+    /// The kernels specialised to `features`, able to split samples if `splitting`, reading
+    /// every table from a storage buffer (so any scene with those features), built on first
+    /// use and cached.
     pub fn kernel(&self, features: SceneFeatures, splitting: bool) -> Result<Arc<Kernel>> {
         self.kernel_with_short_stack_limit(features, splitting, crate::bvh::SHORT_STACK_SIZE as u32)
     }
@@ -237,42 +284,67 @@ impl GpuContext {
         splitting: bool,
         limit: u32,
     ) -> Result<Arc<Kernel>> {
+        self.kernel_variant(features, splitting, limit, UniformTables::default())
+    }
+
+    /// The kernels specialised to `features`, able to split if `splitting`, with the
+    /// traversal's short-stack limit `limit`, reading the tables in the forms `tables`;
+    /// built on first use and cached.
+    pub fn kernel_variant(
+        &self,
+        features: SceneFeatures,
+        splitting: bool,
+        limit: u32,
+        tables: UniformTables,
+    ) -> Result<Arc<Kernel>> {
         let mut cache = self.kernels.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(k) = cache.get(&(features, splitting, limit)) {
+        if let Some(k) = cache.get(&(features, splitting, limit, tables)) {
             return Ok(k.clone());
         }
+        let source = self.module(tables)?;
         let mut constants = feature_constants(features);
         constants.push(("SHORT_STACK_LIMIT", limit as f64));
         constants.push(("SPLITTING", if splitting { 1.0 } else { 0.0 }));
-        let (render, build_seconds) = self.build_pipeline("render", &constants)?;
-        let (first_hit, _) = self.build_pipeline("first_hit", &constants)?;
-        let kernel = Arc::new(Kernel { render, first_hit, build_seconds, splitting });
-        cache.insert((features, splitting, limit), kernel.clone());
+        let (render, build_seconds) = self.build_pipeline(&source, "render", &constants)?;
+        let (first_hit, _) = self.build_pipeline(&source, "first_hit", &constants)?;
+        let kernel = Arc::new(Kernel { render, first_hit, build_seconds, splitting, tables, source });
+        cache.insert((features, splitting, limit, tables), kernel.clone());
         Ok(kernel)
     }
 
     /// The light tracer's kernel (`trace_caustics` in shaders/light_tracing.wgsl)
-    /// specialised to `features`, built on first use and cached.
-    pub fn caustics_kernel(&self, features: SceneFeatures) -> Result<Arc<wgpu::ComputePipeline>> {
+    /// specialised to `features`, reading the tables in the forms `tables`, built on first
+    /// use and cached.
+    pub fn caustics_kernel(
+        &self,
+        features: SceneFeatures,
+        tables: UniformTables,
+    ) -> Result<Arc<wgpu::ComputePipeline>> {
         let mut cache = self.caustic_kernels.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(k) = cache.get(&features) {
+        if let Some(k) = cache.get(&(features, tables)) {
             return Ok(k.clone());
         }
-        let (pipeline, _) = self.build_pipeline("trace_caustics", &feature_constants(features))?;
+        let source = self.module(tables)?;
+        let (pipeline, _) = self.build_pipeline(&source, "trace_caustics", &feature_constants(features))?;
         let pipeline = Arc::new(pipeline);
-        cache.insert(features, pipeline.clone());
+        cache.insert((features, tables), pipeline.clone());
         Ok(pipeline)
     }
 
-    /// Builds entry point `entry` of the kernel module with the override values
+    /// Builds entry point `entry` of the kernel module `source` with the override values
     /// `constants`; returns it and the seconds it took.
-    fn build_pipeline(&self, entry: &str, constants: &[(&str, f64)]) -> Result<(wgpu::ComputePipeline, f64)> {
+    fn build_pipeline(
+        &self,
+        source: &KernelModule,
+        entry: &str,
+        constants: &[(&str, f64)],
+    ) -> Result<(wgpu::ComputePipeline, f64)> {
         let start = Instant::now();
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some(entry),
-            layout: Some(&self.pipeline_layout),
-            module: &self.module,
+            layout: Some(&source.pipeline_layout),
+            module: &source.module,
             entry_point: Some(entry),
             compilation_options: wgpu::PipelineCompilationOptions {
                 constants,

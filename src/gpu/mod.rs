@@ -5,6 +5,8 @@
 pub mod context;
 mod renderer;
 pub mod shader;
+pub mod tables;
 
 pub use context::{describe_adapter, enumerate_adapters, hardware_adapter, GpuContext, Kernel};
 pub use renderer::GpuBackend;
+pub use tables::UniformTables;

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, Kernel};
+use super::tables::UniformTables;
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::render::{Backend, RenderSettings};
@@ -62,7 +63,7 @@ pub struct GpuBackend {
 impl GpuBackend {
     /// Uploads `scene` and builds (or fetches from the cache) its specialised kernel.
     pub fn new(ctx: Arc<GpuContext>, scene: &FlatScene, settings: &RenderSettings) -> Result<GpuBackend> {
-        Self::with_kernel(ctx.clone(), ctx.kernel(scene.features, settings.splitting())?, scene, settings)
+        Self::with_kernel(ctx.clone(), ctx.kernel_for_scene(scene, settings.splitting())?, scene, settings)
     }
 
     /// As [`Self::new`] but with an explicit kernel (e.g. the un-specialised one, to measure
@@ -79,6 +80,9 @@ impl GpuBackend {
                 "--splits {}: this kernel was built without splitting",
                 settings.splits
             )));
+        }
+        if let Some(misfit) = kernel.tables.misfit(scene) {
+            return Err(Error::Gpu(format!("{misfit} ({})", kernel.tables.describe())));
         }
         let device = &ctx.device;
         let max_groups = ctx.limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
@@ -111,15 +115,28 @@ impl GpuBackend {
             }))
         };
         let read_only = wgpu::BufferUsages::STORAGE;
+        // One of the scene's small tables (binding `binding`), in the form the kernel reads
+        // it: a storage buffer, or a uniform buffer padded to the declared array.
+        let table = |what: &str, binding: u32, bytes: &[u8]| -> Result<wgpu::Buffer> {
+            if kernel.tables.is_uniform(binding) {
+                Ok(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(what),
+                    contents: &UniformTables::padded(bytes),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                }))
+            } else {
+                storage(what, bytes, read_only)
+            }
+        };
         // A binding may not be empty; a scene without lights binds one unused record.
         let lights: Vec<Light> =
             if scene.lights.is_empty() { vec![Light::default()] } else { scene.lights.clone() };
         let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let nodes = storage("BVH node buffer", bytemuck::cast_slice(&scene.nodes), read_only)?;
-        let triangles = storage("triangle buffer", bytemuck::cast_slice(&scene.triangles), read_only)?;
+        let nodes = table("BVH node buffer", 0, bytemuck::cast_slice(&scene.nodes))?;
+        let triangles = table("triangle buffer", 1, bytemuck::cast_slice(&scene.triangles))?;
         let normals = storage("normal buffer", bytemuck::cast_slice(&scene.normals), read_only)?;
-        let materials = storage("material buffer", bytemuck::cast_slice(&scene.materials), read_only)?;
-        let lights = storage("light buffer", bytemuck::cast_slice(&lights), read_only)?;
+        let materials = table("material buffer", 3, bytemuck::cast_slice(&scene.materials))?;
+        let lights = table("light buffer", 4, bytemuck::cast_slice(&lights))?;
         let env = &scene.environment;
         let environment = storage("environment", bytemuck::bytes_of(&env.params), read_only)?;
         // Bindings may not be empty: without an environment, one unused element each.
@@ -165,7 +182,7 @@ impl GpuBackend {
         let ray_counts = zeroed("ray-count buffer", pixels * 4)?;
         // Light tracing as the CPU backend decides it (`CpuBackend::light_traces_caustics`).
         let caustics_kernel = if settings.light_tracing && crate::cpu::scene_supports_light_tracing(scene) {
-            Some(ctx.caustics_kernel(scene.features)?)
+            Some(ctx.caustics_kernel(scene.features, kernel.tables)?)
         } else {
             None
         };
@@ -215,7 +232,7 @@ impl GpuBackend {
             .collect();
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("pathlight scene"),
-            layout: &ctx.bind_group_layout,
+            layout: &kernel.source.bind_group_layout,
             entries: &entries,
         });
         ctx.check()?;
@@ -278,6 +295,11 @@ impl GpuBackend {
     /// Seconds it took to build this backend's kernel.
     pub fn kernel_build_seconds(&self) -> f64 {
         self.kernel.build_seconds
+    }
+
+    /// The forms its kernel reads the scene's small tables in.
+    pub fn tables(&self) -> UniformTables {
+        self.kernel.tables
     }
 
     fn frame_params(&self, sample_offset: u32, samples: u32, row_offset: u32, row_count: u32) -> FrameParams {

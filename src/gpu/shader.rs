@@ -1,6 +1,9 @@
 //! The megakernel's WGSL: one file per concept under `shaders/`, composed in one declared
-//! order (each file may use what the files before it declare). Errors are reported against
-//! the file and line they come from.
+//! order (each file may use what the files before it declare), then the declarations of the
+//! scene's small tables in the forms the kernel reads them in ([`UniformTables`]). Errors
+//! are reported against the file and line they come from.
+
+use super::tables::UniformTables;
 
 /// The kernel's source files, in dependency order.
 pub const SHADER_FILES: &[(&str, &str)] = &[
@@ -38,9 +41,16 @@ pub fn display_source() -> String {
     format!("{}{}", compose(1), include_str!("../../shaders/display.wgsl"))
 }
 
-/// The whole kernel.
-pub fn kernel_source() -> String {
-    compose(SHADER_FILES.len())
+/// The whole kernel, reading the scene's small tables in the forms `tables` gives them.
+/// WGSL lets module-scope declarations come in any order, so the generated declarations
+/// follow the files and `locate` still maps every file's lines.
+pub fn kernel_source(tables: UniformTables) -> String {
+    with_tables(compose(SHADER_FILES.len()), tables)
+}
+
+fn with_tables(mut source: String, tables: UniformTables) -> String {
+    source.push_str(&tables.declarations());
+    source
 }
 
 /// Maps a 1-based line of the composed source back to `shaders/<file>:<line>`.
@@ -79,8 +89,25 @@ mod tests {
     #[test]
     fn every_wgsl_file_validates_with_its_dependencies() {
         for i in 1..=SHADER_FILES.len() {
-            if let Err(e) = parse_and_validate(&compose(i)) {
+            if let Err(e) = parse_and_validate(&with_tables(compose(i), UniformTables::default())) {
                 panic!("{} does not validate: {e}", SHADER_FILES[i - 1].0);
+            }
+        }
+    }
+
+    /// The kernel validates with each table in either form (uniform arrays have stricter
+    /// layout rules than storage ones).
+    #[test]
+    fn kernel_validates_with_every_table_form() {
+        for bits in 0..16u32 {
+            let tables = UniformTables {
+                nodes: bits & 1 != 0,
+                triangles: bits & 2 != 0,
+                materials: bits & 4 != 0,
+                lights: bits & 8 != 0,
+            };
+            if let Err(e) = parse_and_validate(&kernel_source(tables)) {
+                panic!("the kernel with {tables:?} does not validate: {e}");
             }
         }
     }
@@ -96,7 +123,7 @@ mod tests {
     /// field offsets, and every shared constant has the same value.
     #[test]
     fn layout_matches_wgsl() {
-        let module = parse_and_validate(&kernel_source()).unwrap();
+        let module = parse_and_validate(&kernel_source(UniformTables::default())).unwrap();
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).unwrap();
         for (name, size, fields) in layout::all_layouts() {
