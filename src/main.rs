@@ -782,8 +782,10 @@ fn splits_help() -> String {
     format!(
         "Continuations per camera sample, split at its first vertex with a non-delta lobe \
          (trajectory splitting; 1: none). --spp counts camera samples. Default: the backend's, \
-         chosen by measured efficiency ({} on the CPU, {} on the GPU)",
+         chosen by measured efficiency ({} on the CPU, {} on a software GPU such as lavapipe, {} on \
+         a hardware GPU)",
         pathlight::render::CPU_DEFAULT_SPLITS,
-        pathlight::render::GPU_DEFAULT_SPLITS
+        pathlight::render::SOFTWARE_GPU_DEFAULT_SPLITS,
+        pathlight::render::HARDWARE_GPU_DEFAULT_SPLITS
     )
 }

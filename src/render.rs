@@ -58,19 +58,46 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 /// one of them (bench/RESULTS.md, "Splitting at the first vertex").
 pub const CPU_DEFAULT_SPLITS: u32 = 4;
 
-/// The GPU backend's splitting factor unless told otherwise: level on lavapipe's Cornell
-/// box, and not yet measured on a hardware GPU, where the saved vertex would hold registers
-/// through the kernel's whole loop.
-pub const GPU_DEFAULT_SPLITS: u32 = 1;
+/// The GPU backend's splitting factor on a software rasteriser (lavapipe) unless told
+/// otherwise. At equal work on the Cornell box, reading its tables from uniform buffers,
+/// 4 continuations take 1.22× less relMSE × seconds than none there, and 8 a further 3%
+/// (bench/RESULTS.md, twenty-fifth session).
+pub const SOFTWARE_GPU_DEFAULT_SPLITS: u32 = 4;
+
+/// The GPU backend's splitting factor on a hardware GPU unless told otherwise: not yet
+/// measured on one. Continuation rays are as incoherent as bounce rays while camera rays
+/// are coherent, which lowered lavapipe's rays per second by a fifth at 4 continuations
+/// (still a gain there); whether a GPU gains is for a session lent one to measure.
+pub const HARDWARE_GPU_DEFAULT_SPLITS: u32 = 1;
+
+/// What a render runs on, for the defaults that depend on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderDevice {
+    Cpu,
+    /// A Vulkan adapter that is a software rasteriser (adapter type CPU, such as lavapipe).
+    SoftwareGpu,
+    HardwareGpu,
+}
+
+impl RenderDevice {
+    /// The CPU backend without a GPU context, else the context's kind of adapter.
+    pub fn of(gpu: Option<&crate::gpu::GpuContext>) -> RenderDevice {
+        match gpu {
+            None => RenderDevice::Cpu,
+            Some(ctx) if ctx.is_hardware() => RenderDevice::HardwareGpu,
+            Some(_) => RenderDevice::SoftwareGpu,
+        }
+    }
+}
 
 /// The splitting factor a backend renders with unless told otherwise: the one place that
-/// picks between [`CPU_DEFAULT_SPLITS`] and [`GPU_DEFAULT_SPLITS`], for `pathlight render`
-/// and the bench alike.
-pub fn default_splits(gpu: bool) -> u32 {
-    if gpu {
-        GPU_DEFAULT_SPLITS
-    } else {
-        CPU_DEFAULT_SPLITS
+/// picks between [`CPU_DEFAULT_SPLITS`], [`SOFTWARE_GPU_DEFAULT_SPLITS`] and
+/// [`HARDWARE_GPU_DEFAULT_SPLITS`], for `pathlight render` and the bench alike.
+pub fn default_splits(device: RenderDevice) -> u32 {
+    match device {
+        RenderDevice::Cpu => CPU_DEFAULT_SPLITS,
+        RenderDevice::SoftwareGpu => SOFTWARE_GPU_DEFAULT_SPLITS,
+        RenderDevice::HardwareGpu => HARDWARE_GPU_DEFAULT_SPLITS,
     }
 }
 

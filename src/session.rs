@@ -236,9 +236,6 @@ impl Session {
             },
             (other, _) => other,
         };
-        let on_gpu = matches!(choice, BackendChoice::Gpu);
-        settings.splits = options.splits.unwrap_or(crate::render::default_splits(on_gpu));
-        settings.light_tracing = options.light_tracing;
         let gpu = match choice {
             BackendChoice::Gpu => Some(match gpu {
                 Some(ctx) => ctx,
@@ -246,6 +243,9 @@ impl Session {
             }),
             _ => None,
         };
+        let device = crate::render::RenderDevice::of(gpu.as_deref());
+        settings.splits = options.splits.unwrap_or(crate::render::default_splits(device));
+        settings.light_tracing = options.light_tracing;
         let (backend, gpu_film, backend_detail) = make_backend(&flat, &settings, gpu.as_ref())?;
         Ok(Session {
             backend_detail,

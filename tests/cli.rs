@@ -181,7 +181,11 @@ fn auto_backend_prefers_hardware_and_says_why_it_does_not() {
         // --backend gpu forces the Vulkan device, software or not.
         let (ok, stderr) = render(&["--backend", "gpu"], false);
         assert!(ok && stderr.contains("backend gpu") && stderr.contains("kernel specialised to"), "{stderr}");
-        assert!(pathlight::film::read_exr(&exr).unwrap().attributes["pathlight.backend"].starts_with("gpu"));
+        let attributes = pathlight::film::read_exr(&exr).unwrap().attributes;
+        assert!(attributes["pathlight.backend"].starts_with("gpu"));
+        // Its default splitting is the device kind's (`render::default_splits`).
+        let device = pathlight::render::RenderDevice::of(Some(&ctx));
+        assert_eq!(attributes["pathlight.splits"], pathlight::render::default_splits(device).to_string());
     }
     // No Vulkan driver visible: auto renders on the CPU and says so ...
     let (ok, stderr) = render(&[], true);

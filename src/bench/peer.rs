@@ -227,7 +227,7 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
         height: options.height,
         spp: options.reference_spp,
         seed: 0x5EED_0001,
-        splits: crate::render::default_splits(hardware_gpu.is_some()),
+        splits: crate::render::default_splits(crate::render::RenderDevice::of(hardware_gpu.map(|c| &**c))),
         light_tracing: true,
         ..RenderSettings::default()
     };
@@ -434,7 +434,7 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
         width: options.width,
         height: options.height,
         spp: 1 << 20,
-        splits: crate::render::default_splits(false),
+        splits: crate::render::default_splits(crate::render::RenderDevice::Cpu),
         light_tracing: true,
         ..RenderSettings::default()
     };
@@ -457,7 +457,8 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
         pathlight.push(backend_series(&mut backend, ", independent sampler", &file, &reference, options)?);
     }
     if let Some(ctx) = &options.gpu {
-        let gpu_settings = RenderSettings { splits: crate::render::default_splits(true), ..settings.clone() };
+        let splits = crate::render::default_splits(crate::render::RenderDevice::of(Some(ctx)));
+        let gpu_settings = RenderSettings { splits, ..settings.clone() };
         let mut backend = GpuBackend::new(ctx.clone(), &flat, &gpu_settings)?;
         pathlight.push(backend_series(
             &mut backend,
