@@ -850,8 +850,9 @@ fn restart_trail_arithmetic_matches_its_twin() {
     let input: Vec<[u32; 4]> = cases.iter().map(|&(t, d)| [(t >> 32) as u32, t as u32, d, 0]).collect();
     let bvh_files =
         pathlight::gpu::shader::SHADER_FILES.iter().position(|(name, _)| *name == "bvh.wgsl").unwrap() + 1;
-    let source = pathlight::gpu::shader::compose(bvh_files)
-        + r#"
+    let source =
+        pathlight::gpu::shader::compose_with_tables(bvh_files, pathlight::gpu::UniformTables::default())
+            + r#"
 @group(0) @binding(100) var<storage, read> trail_cases: array<vec4<u32>>;
 @group(0) @binding(101) var<storage, read_write> trail_results: array<vec4<u32>>;
 

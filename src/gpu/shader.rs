@@ -45,10 +45,13 @@ pub fn display_source() -> String {
 /// WGSL lets module-scope declarations come in any order, so the generated declarations
 /// follow the files and `locate` still maps every file's lines.
 pub fn kernel_source(tables: UniformTables) -> String {
-    with_tables(compose(SHADER_FILES.len()), tables)
+    compose_with_tables(SHADER_FILES.len(), tables)
 }
 
-fn with_tables(mut source: String, tables: UniformTables) -> String {
+/// The first `count` files followed by the declarations of the scene's tables in the forms
+/// `tables` (what a test kernel built from part of the files needs).
+pub fn compose_with_tables(count: usize, tables: UniformTables) -> String {
+    let mut source = compose(count);
     source.push_str(&tables.declarations());
     source
 }
@@ -89,7 +92,7 @@ mod tests {
     #[test]
     fn every_wgsl_file_validates_with_its_dependencies() {
         for i in 1..=SHADER_FILES.len() {
-            if let Err(e) = parse_and_validate(&with_tables(compose(i), UniformTables::default())) {
+            if let Err(e) = parse_and_validate(&compose_with_tables(i, UniformTables::default())) {
                 panic!("{} does not validate: {e}", SHADER_FILES[i - 1].0);
             }
         }
