@@ -629,6 +629,11 @@ fn lights_of_unequal_power_same_seed_agree() {
     same_seed_agrees_scene("EmissiveStrengthTest", &flat, 1e-3);
 }
 
+/// How many pixels' statistics (sample counts, means, M2) differ in any bit.
+fn pixels_not_bit_equal(a: &Film, b: &Film) -> usize {
+    a.pixels.iter().zip(&b.pixels).filter(|(p, q)| bytemuck::bytes_of(*p) != bytemuck::bytes_of(*q)).count()
+}
+
 #[test]
 fn uniform_and_storage_tables_give_the_same_image() {
     // A software adapter reads the scene's small tables from uniform buffers where they fit
@@ -658,12 +663,7 @@ fn uniform_and_storage_tables_give_the_same_image() {
         let some = pathlight::gpu::UniformTables { nodes: true, materials: true, ..Default::default() };
         for tables in [pathlight::gpu::UniformTables::ALL, some] {
             let (uniform, _) = render(tables);
-            let differing = storage
-                .pixels
-                .iter()
-                .zip(&uniform.pixels)
-                .filter(|(a, b)| bytemuck::bytes_of(*a) != bytemuck::bytes_of(*b))
-                .count();
+            let differing = pixels_not_bit_equal(&storage, &uniform);
             assert_eq!(differing, 0, "{file}, {tables:?}: {differing} of {} pixels differ", size * size);
         }
     }
@@ -715,12 +715,7 @@ fn short_stack_size_does_not_change_the_image() {
     let (full, full_hits) = render(pathlight::bvh::SHORT_STACK_SIZE as u32);
     for limit in [0, 2] {
         let (short, short_hits) = render(limit);
-        let differing = full
-            .pixels
-            .iter()
-            .zip(&short.pixels)
-            .filter(|(a, b)| bytemuck::bytes_of(*a) != bytemuck::bytes_of(*b))
-            .count();
+        let differing = pixels_not_bit_equal(&full, &short);
         assert_eq!(differing, 0, "limit {limit}: {differing} of {} pixels differ", size * size);
         assert!(
             bytemuck::cast_slice::<_, u8>(&full_hits) == bytemuck::cast_slice::<_, u8>(&short_hits),
