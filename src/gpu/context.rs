@@ -98,6 +98,9 @@ pub(crate) struct KernelModule {
     pipeline_layout: wgpu::PipelineLayout,
 }
 
+/// The kernel's bindings, 0 to 19 of group 0 (shaders/bindings.wgsl and src/gpu/tables.rs).
+const KERNEL_BINDINGS: u32 = 20;
+
 /// What a kernel is cached under: the scene features it is specialised to, whether it can
 /// split, its traversal's short-stack limit and its tables' forms.
 type KernelKey = (SceneFeatures, bool, u32, UniformTables);
@@ -213,8 +216,9 @@ impl GpuContext {
         // Binding numbers as declared in shaders/bindings.wgsl and src/gpu/tables.rs. The
         // per-dispatch ones are storage buffers: lavapipe recompiles the kernel for every
         // re-bound uniform that steers its branches (see shaders/bindings.wgsl).
+        // `film`, `first_hits`, `ray_counts` and `caustics`, which the kernel writes.
         let read_write = [7, 8, 9, 19];
-        let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..=19)
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..KERNEL_BINDINGS)
             .map(|binding| {
                 let ty = if tables.is_uniform(binding) {
                     wgpu::BufferBindingType::Uniform

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, Kernel};
-use super::tables::UniformTables;
+use super::tables::{self, UniformTables};
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::render::{Backend, RenderSettings};
@@ -132,11 +132,13 @@ impl GpuBackend {
         let lights: Vec<Light> =
             if scene.lights.is_empty() { vec![Light::default()] } else { scene.lights.clone() };
         let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let nodes = table("BVH node buffer", 0, bytemuck::cast_slice(&scene.nodes))?;
-        let triangles = table("triangle buffer", 1, bytemuck::cast_slice(&scene.triangles))?;
+        let nodes = table("BVH node buffer", tables::NODES_BINDING, bytemuck::cast_slice(&scene.nodes))?;
+        let triangles =
+            table("triangle buffer", tables::TRIANGLES_BINDING, bytemuck::cast_slice(&scene.triangles))?;
         let normals = storage("normal buffer", bytemuck::cast_slice(&scene.normals), read_only)?;
-        let materials = table("material buffer", 3, bytemuck::cast_slice(&scene.materials))?;
-        let lights = table("light buffer", 4, bytemuck::cast_slice(&lights))?;
+        let materials =
+            table("material buffer", tables::MATERIALS_BINDING, bytemuck::cast_slice(&scene.materials))?;
+        let lights = table("light buffer", tables::LIGHTS_BINDING, bytemuck::cast_slice(&lights))?;
         let env = &scene.environment;
         let environment = storage("environment", bytemuck::bytes_of(&env.params), read_only)?;
         // Bindings may not be empty: without an environment, one unused element each.

@@ -44,8 +44,13 @@ pub struct UniformTables {
     pub lights: bool,
 }
 
-/// One table: its binding (shaders/bindings.wgsl numbers them), WGSL name and record type,
-/// and its capacity as a uniform array.
+/// The tables' bindings in group 0 (the kernel's other bindings are in shaders/bindings.wgsl).
+pub const NODES_BINDING: u32 = 0;
+pub const TRIANGLES_BINDING: u32 = 1;
+pub const MATERIALS_BINDING: u32 = 3;
+pub const LIGHTS_BINDING: u32 = 4;
+
+/// One table: its binding, WGSL name and record type, and its capacity as a uniform array.
 struct Table {
     binding: u32,
     name: &'static str,
@@ -54,10 +59,25 @@ struct Table {
 }
 
 const TABLES: [Table; 4] = [
-    Table { binding: 0, name: "nodes", record: "BvhNode", capacity: uniform_capacity::<BvhNode>() },
-    Table { binding: 1, name: "triangles", record: "Triangle", capacity: uniform_capacity::<Triangle>() },
-    Table { binding: 3, name: "materials", record: "Material", capacity: uniform_capacity::<Material>() },
-    Table { binding: 4, name: "lights", record: "Light", capacity: uniform_capacity::<Light>() },
+    Table {
+        binding: NODES_BINDING,
+        name: "nodes",
+        record: "BvhNode",
+        capacity: uniform_capacity::<BvhNode>(),
+    },
+    Table {
+        binding: TRIANGLES_BINDING,
+        name: "triangles",
+        record: "Triangle",
+        capacity: uniform_capacity::<Triangle>(),
+    },
+    Table {
+        binding: MATERIALS_BINDING,
+        name: "materials",
+        record: "Material",
+        capacity: uniform_capacity::<Material>(),
+    },
+    Table { binding: LIGHTS_BINDING, name: "lights", record: "Light", capacity: uniform_capacity::<Light>() },
 ];
 
 impl UniformTables {
@@ -98,7 +118,7 @@ impl UniformTables {
         })
     }
 
-    /// Is table `binding` (0, 1, 3 or 4) a uniform buffer in these forms?
+    /// Is binding `binding` one of the tables, and a uniform buffer in these forms?
     pub fn is_uniform(self, binding: u32) -> bool {
         TABLES.iter().zip(self.flags()).any(|(t, uniform)| t.binding == binding && uniform)
     }
