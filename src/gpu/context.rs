@@ -248,7 +248,7 @@ impl GpuContext {
     pub fn prefers_uniform_tables(&self) -> bool {
         !self.is_hardware()
             && self.limits.max_uniform_buffer_binding_size >= super::tables::UNIFORM_TABLE_BYTES as u64
-            && self.limits.max_uniform_buffers_per_shader_stage >= 4
+            && self.limits.max_uniform_buffers_per_shader_stage >= super::tables::TABLE_COUNT as u32
     }
 
     /// The table forms this adapter reads `scene` with: each table that fits in a uniform

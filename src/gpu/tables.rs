@@ -58,7 +58,10 @@ struct Table {
     capacity: usize,
 }
 
-const TABLES: [Table; 4] = [
+/// How many tables there are: each needs a uniform-buffer binding when it is one.
+pub const TABLE_COUNT: usize = 4;
+
+const TABLES: [Table; TABLE_COUNT] = [
     Table {
         binding: NODES_BINDING,
         name: "nodes",
@@ -93,12 +96,13 @@ impl UniformTables {
     pub const ALL: UniformTables =
         UniformTables { nodes: true, triangles: true, materials: true, lights: true };
 
-    fn flags(self) -> [bool; 4] {
-        [self.nodes, self.triangles, self.materials, self.lights]
+    /// Each table with whether these forms read it from a uniform buffer, in [`TABLES`] order.
+    fn entries(self) -> impl Iterator<Item = (&'static Table, bool)> {
+        TABLES.iter().zip([self.nodes, self.triangles, self.materials, self.lights])
     }
 
     /// (records, uniform capacity) of each table of `scene`, in [`TABLES`] order.
-    fn counts(scene: &FlatScene) -> [(usize, usize); 4] {
+    fn counts(scene: &FlatScene) -> [(usize, usize); TABLE_COUNT] {
         let records =
             [scene.nodes.len(), scene.triangles.len(), scene.materials.len(), scene.lights.len().max(1)];
         std::array::from_fn(|i| (records[i], TABLES[i].capacity))
@@ -108,7 +112,7 @@ impl UniformTables {
     /// not fit.
     pub fn misfit(self, scene: &FlatScene) -> Option<String> {
         let counts = Self::counts(scene);
-        TABLES.iter().zip(self.flags()).zip(counts).find_map(|((table, uniform), (count, capacity))| {
+        self.entries().zip(counts).find_map(|((table, uniform), (count, capacity))| {
             (uniform && count > capacity).then(|| {
                 format!(
                     "the kernel reads {} from a uniform buffer of {capacity} records; the scene has {count}",
@@ -120,7 +124,7 @@ impl UniformTables {
 
     /// Is binding `binding` one of the tables, and a uniform buffer in these forms?
     pub fn is_uniform(self, binding: u32) -> bool {
-        TABLES.iter().zip(self.flags()).any(|(t, uniform)| t.binding == binding && uniform)
+        self.entries().any(|(t, uniform)| t.binding == binding && uniform)
     }
 
     /// The four tables' WGSL declarations in these forms.
@@ -129,7 +133,7 @@ impl UniformTables {
             "// The scene's small tables, declared by src/gpu/tables.rs in the forms this kernel\n\
              // reads them in (storage, or uniform where a software adapter gains by it).\n",
         );
-        for (t, uniform) in TABLES.iter().zip(self.flags()) {
+        for (t, uniform) in self.entries() {
             let (binding, name, record) = (t.binding, t.name, t.record);
             if uniform {
                 out.push_str(&format!(
@@ -147,8 +151,7 @@ impl UniformTables {
 
     /// A short description for kernel names and bench rows: "uniform nodes, triangles".
     pub fn describe(self) -> String {
-        let uniform: Vec<&str> =
-            TABLES.iter().zip(self.flags()).filter(|(_, u)| *u).map(|(t, _)| t.name).collect();
+        let uniform: Vec<&str> = self.entries().filter(|(_, u)| *u).map(|(t, _)| t.name).collect();
         if uniform.is_empty() {
             "storage tables".into()
         } else {
@@ -169,19 +172,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn uniform_arrays_fill_at_most_a_table_and_keep_uniform_strides() {
-        for t in &TABLES {
-            assert!(t.capacity > 0, "{}", t.name);
-        }
-        // WGSL requires a uniform array's element stride to be a multiple of 16.
-        for size in [
+    fn uniform_arrays_hold_records_and_keep_uniform_strides() {
+        // WGSL requires a uniform array's element stride to be a multiple of 16, and a
+        // table must hold at least one record.
+        for (t, size) in TABLES.iter().zip([
             std::mem::size_of::<BvhNode>(),
             std::mem::size_of::<Triangle>(),
             std::mem::size_of::<Material>(),
             std::mem::size_of::<Light>(),
-        ] {
-            assert_eq!(size % 16, 0);
-            assert!(UNIFORM_TABLE_BYTES / size * size <= UNIFORM_TABLE_BYTES);
+        ]) {
+            assert_eq!(size % 16, 0, "{}", t.name);
+            assert!(t.capacity > 0, "{}", t.name);
         }
         assert_eq!(TABLES[0].capacity, 2048);
     }
