@@ -23,16 +23,11 @@
 //! combination of forms is a module of its own; the host pads a uniform table to the
 //! declared array's size, which WebGPU requires a binding to have.
 
-use crate::scene::layout::{BvhNode, Light, Material, Triangle};
+use crate::scene::layout::{BvhNode, GpuStruct, Light, Material, Triangle};
 use crate::scene::FlatScene;
 
 /// A uniform table's size: WebGPU's guaranteed `maxUniformBufferBindingSize`, and lavapipe's.
 pub const UNIFORM_TABLE_BYTES: usize = 64 << 10;
-
-/// The most records of `T` a uniform table holds.
-pub const fn uniform_capacity<T>() -> usize {
-    UNIFORM_TABLE_BYTES / std::mem::size_of::<T>()
-}
 
 /// Which of the four tables the kernel reads from a uniform buffer (the rest from storage
 /// buffers). The default, all storage, serves any scene.
@@ -50,37 +45,34 @@ pub const TRIANGLES_BINDING: u32 = 1;
 pub const MATERIALS_BINDING: u32 = 3;
 pub const LIGHTS_BINDING: u32 = 4;
 
-/// One table: its binding, WGSL name and record type, and its capacity as a uniform array.
+/// One table: its binding, WGSL name, and its record's WGSL struct name and size.
 struct Table {
     binding: u32,
     name: &'static str,
     record: &'static str,
-    capacity: usize,
+    record_bytes: usize,
+}
+
+impl Table {
+    /// The table of `T` records at `binding`, named `name` in the kernel.
+    const fn of<T: GpuStruct>(binding: u32, name: &'static str) -> Table {
+        Table { binding, name, record: T::NAME, record_bytes: std::mem::size_of::<T>() }
+    }
+
+    /// How many records the table holds as a uniform array.
+    const fn capacity(&self) -> usize {
+        UNIFORM_TABLE_BYTES / self.record_bytes
+    }
 }
 
 /// How many tables there are: each needs a uniform-buffer binding when it is one.
 pub const TABLE_COUNT: usize = 4;
 
 const TABLES: [Table; TABLE_COUNT] = [
-    Table {
-        binding: NODES_BINDING,
-        name: "nodes",
-        record: "BvhNode",
-        capacity: uniform_capacity::<BvhNode>(),
-    },
-    Table {
-        binding: TRIANGLES_BINDING,
-        name: "triangles",
-        record: "Triangle",
-        capacity: uniform_capacity::<Triangle>(),
-    },
-    Table {
-        binding: MATERIALS_BINDING,
-        name: "materials",
-        record: "Material",
-        capacity: uniform_capacity::<Material>(),
-    },
-    Table { binding: LIGHTS_BINDING, name: "lights", record: "Light", capacity: uniform_capacity::<Light>() },
+    Table::of::<BvhNode>(NODES_BINDING, "nodes"),
+    Table::of::<Triangle>(TRIANGLES_BINDING, "triangles"),
+    Table::of::<Material>(MATERIALS_BINDING, "materials"),
+    Table::of::<Light>(LIGHTS_BINDING, "lights"),
 ];
 
 impl UniformTables {
@@ -105,7 +97,7 @@ impl UniformTables {
     fn counts(scene: &FlatScene) -> [(usize, usize); TABLE_COUNT] {
         let records =
             [scene.nodes.len(), scene.triangles.len(), scene.materials.len(), scene.lights.len().max(1)];
-        std::array::from_fn(|i| (records[i], TABLES[i].capacity))
+        std::array::from_fn(|i| (records[i], TABLES[i].capacity()))
     }
 
     /// `None` if every uniform table of these forms holds `scene`'s records, else what does
@@ -138,7 +130,7 @@ impl UniformTables {
             if uniform {
                 out.push_str(&format!(
                     "@group(0) @binding({binding}) var<uniform> {name}: array<{record}, {}>;\n",
-                    t.capacity
+                    t.capacity()
                 ));
             } else {
                 out.push_str(&format!(
@@ -175,16 +167,11 @@ mod tests {
     fn uniform_arrays_hold_records_and_keep_uniform_strides() {
         // WGSL requires a uniform array's element stride to be a multiple of 16, and a
         // table must hold at least one record.
-        for (t, size) in TABLES.iter().zip([
-            std::mem::size_of::<BvhNode>(),
-            std::mem::size_of::<Triangle>(),
-            std::mem::size_of::<Material>(),
-            std::mem::size_of::<Light>(),
-        ]) {
-            assert_eq!(size % 16, 0, "{}", t.name);
-            assert!(t.capacity > 0, "{}", t.name);
+        for t in &TABLES {
+            assert_eq!(t.record_bytes % 16, 0, "{}", t.name);
+            assert!(t.capacity() > 0, "{}", t.name);
         }
-        assert_eq!(TABLES[0].capacity, 2048);
+        assert_eq!(TABLES[0].capacity(), 2048);
     }
 
     #[test]
