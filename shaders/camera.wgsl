@@ -51,3 +51,11 @@ fn project_to_pixel(p: vec3<f32>, width: u32, height: u32) -> PixelProjection {
 fn pinhole_pixel_area(width: u32, height: u32) -> f32 {
     return (2.0 * camera.half_width / f32(width)) * (2.0 * camera.half_height / f32(height));
 }
+
+// The pixel (x, y) of invocation `gid` within this dispatch's band of rows
+// [row_offset, row_offset + row_count); z = 0 when it lies outside the band or the image.
+fn band_pixel(gid: vec3<u32>) -> vec3<u32> {
+    let y = gid.y + frame.row_offset;
+    let inside = gid.x < frame.width && gid.y < frame.row_count && y < frame.height;
+    return vec3<u32>(gid.x, y, select(0u, 1u, inside));
+}

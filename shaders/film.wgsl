@@ -21,7 +21,7 @@ fn film_add_sample(p_in: FilmPixel, x: vec3<f32>, replicate: u32) -> FilmPixel {
 
 // The light tracer's image (`caustics`, shaders/bindings.wgsl) in 64-bit fixed point with
 // CAUSTIC_FRACTION_BITS fraction bits: twin of `caustic_to_fixed` / `caustic_from_fixed` in
-// src/cpu/light_tracing.rs. Integer adds commute, so the image's bits do not depend on the
+// src/integrator/light_tracing.rs. Integer adds commute, so the image's bits do not depend on the
 // order in which the light paths' splats arrive.
 const CAUSTIC_FRACTION_BITS: u32 = 20u;
 const CAUSTIC_MAX_FIXED: f32 = 17592186044416.0;
@@ -56,4 +56,9 @@ fn caustic_radiance(pixel: u32) -> vec3<f32> {
         out[c] = high + low;
     }
     return out;
+}
+
+// A NaN, to poison a sample whose throughput stopped being finite (the film rejects it).
+fn poison() -> vec3<f32> {
+    return vec3<f32>(bitcast<f32>(0x7fc00000u));
 }

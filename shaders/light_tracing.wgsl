@@ -1,6 +1,7 @@
-// Twin of src/cpu/light_tracing.rs: the caustic paths by light tracing, connected to the
-// camera. The CPU twin explains the partition of path space between this and `render`,
-// and the two factors by which importance transport differs from radiance transport.
+// Twin of src/integrator/light_tracing.rs: the caustic paths by light tracing, connected to the
+// camera. src/integrator/partition.rs explains the partition of path space between this and
+// `render`, src/integrator/light_tracing.rs the two factors by which importance transport
+// differs from radiance transport.
 
 // Light-path vertices after which roulette may end a light path.
 const LIGHT_RR_MIN_VERTICES: u32 = 2u;
@@ -96,7 +97,7 @@ fn trace_light_path() {
             return;
         }
         if (j >= LIGHT_RR_MIN_VERTICES) {
-            let survival = min(max_element(beta) * roulette_scale, RR_MAX_SURVIVAL);
+            let survival = survival_probability(beta, roulette_scale);
             if (survival <= 0.0 || rng_next_1d() >= survival) {
                 return;
             }

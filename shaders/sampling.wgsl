@@ -260,17 +260,3 @@ fn sample_uniform_triangle(u: vec2<f32>) -> vec3<f32> {
     }
     return vec3<f32>(b0, b1, 1.0 - b0 - b1);
 }
-
-// Power heuristic, β = 2 (Veach 1997, §9.2.4), through the ratio of the smaller density to
-// the larger so nothing is squared past f32's range.
-fn power_heuristic(pdf_this: f32, pdf_other: f32) -> f32 {
-    if (pdf_this <= 0.0) {
-        return 0.0;
-    }
-    if (pdf_this >= pdf_other) {
-        let r = pdf_other / pdf_this;
-        return 1.0 / (1.0 + r * r);
-    }
-    let r = pdf_this / pdf_other;
-    return r * r / (1.0 + r * r);
-}

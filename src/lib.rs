@@ -18,6 +18,7 @@ pub mod error;
 pub mod film;
 pub mod geometry;
 pub mod gpu;
+pub mod integrator;
 pub mod light;
 pub mod render;
 pub mod sampling;

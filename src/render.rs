@@ -6,11 +6,14 @@ use std::time::Instant;
 
 use crate::error::Result;
 use crate::film::Film;
+use crate::integrator::Integrator;
 use crate::sampling::SamplerKind;
 
 /// What to render. Shared by both backends.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
+    /// The estimator ([`crate::integrator`]).
+    pub integrator: Integrator,
     pub width: u32,
     pub height: u32,
     /// Samples per pixel.
@@ -19,28 +22,29 @@ pub struct RenderSettings {
     /// Most scattering events per path; `None`: unlimited (Russian roulette ends paths).
     pub max_depth: Option<u32>,
     /// Russian roulette starts once a path has this many non-delta scattering events
-    /// (`crate::cpu::IntegratorSettings::rr_min_depth`).
+    /// (`crate::integrator::IntegratorSettings::rr_min_depth`).
     pub rr_min_depth: u32,
     /// Where the paths' random numbers come from.
     pub sampler: SamplerKind,
     /// Continuations per camera sample, split at its first vertex with a non-delta lobe
-    /// (trajectory splitting, `crate::cpu::integrator::radiance`); 1: none. A sample costs
+    /// (trajectory splitting, `crate::integrator::path::radiance`); 1: none. A sample costs
     /// more and varies less: `spp` counts camera samples.
     pub splits: u32,
     /// Let a light tracer take the caustic paths where the scene allows it
-    /// (`crate::cpu::supports_light_tracing`), on either backend.
+    /// (`crate::integrator::supports_light_tracing`), on either backend.
     pub light_tracing: bool,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
+            integrator: Integrator::default(),
             width: 512,
             height: 512,
             spp: 64,
             seed: 0,
             max_depth: None,
-            rr_min_depth: crate::cpu::DEFAULT_RR_MIN_DEPTH,
+            rr_min_depth: crate::integrator::DEFAULT_RR_MIN_DEPTH,
             sampler: SamplerKind::default(),
             splits: 1,
             light_tracing: false,
@@ -160,9 +164,9 @@ pub trait Backend {
 }
 
 /// Rays one sample can trace at most: a closest-hit and a shadow ray per bounce up to
-/// `cpu::MAX_BOUNCES_GUARD`, and the camera ray. It bounds how many samples a per-pixel
+/// `integrator::MAX_BOUNCES_GUARD`, and the camera ray. It bounds how many samples a per-pixel
 /// `u32` ray counter can take before it must be folded into a 64-bit total.
-pub const MAX_RAYS_PER_SAMPLE: u64 = 2 * crate::cpu::MAX_BOUNCES_GUARD as u64 + 1;
+pub const MAX_RAYS_PER_SAMPLE: u64 = 2 * crate::integrator::MAX_BOUNCES_GUARD as u64 + 1;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderStats {

@@ -24,6 +24,11 @@ use crate::film::Film;
 /// tev's default port on this machine.
 pub const DEFAULT_ADDRESS: &str = "127.0.0.1:14158";
 
+/// The image name tev shows for a render of `scene`: its file name.
+pub fn image_name(scene: &std::path::Path) -> String {
+    format!("pathlight: {}", scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
+}
+
 /// The channels pathlight sends, in the order of the interleaved data.
 pub const CHANNELS: [&str; 6] = ["R", "G", "B", "variance.R", "variance.G", "variance.B"];
 

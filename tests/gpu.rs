@@ -7,7 +7,8 @@ use std::path::PathBuf;
 use glam::Vec3;
 use pathlight::cpu::CpuBackend;
 use pathlight::film::{write_exr, Film, RenderMetadata};
-use pathlight::gpu::GpuBackend;
+use pathlight::gpu::{GpuBackend, KernelKey};
+use pathlight::integrator::Integrator;
 use pathlight::stats::{normal_two_sided_threshold, sidak_alpha};
 use pathlight::{Backend, RenderSettings};
 
@@ -293,7 +294,7 @@ fn first_hits_agree() {
         for y in 0..size {
             for x in 0..size {
                 let g = &gpu_hits[(y * size + x) as usize];
-                let c = pathlight::cpu::first_hit(&scene, size, size, x, y, 3);
+                let c = pathlight::integrator::first_hit(&scene, size, size, x, y, 3);
                 // Same ray, same triangle test: the hit triangle matches except where a ray
                 // grazes an edge shared by two triangles (a tie decided by rounding).
                 if g.triangle != c.triangle {
@@ -350,7 +351,8 @@ fn specialised_and_general_kernels_agree() {
     // differ only by rounding in code the specialised kernel omits.
     let Some(ctx) = common::gpu() else { return };
     let scene = common::flat_scene(&common::scene("cornell-box.gltf"), 24, 24);
-    let general = ctx.kernel(pathlight::scene::SceneFeatures::ALL, true).unwrap();
+    let general =
+        ctx.kernel(KernelKey::new(Integrator::Path, pathlight::scene::SceneFeatures::ALL, true)).unwrap();
     let a = common::render(&mut GpuBackend::new(ctx.clone(), &scene, &settings(24, 8, 5)).unwrap(), 8);
     let b = common::render(
         &mut GpuBackend::with_kernel(ctx.clone(), general, &scene, &settings(24, 8, 5)).unwrap(),
@@ -572,7 +574,7 @@ fn texture_lookups_agree() {
         for y in 0..size {
             for x in 0..size {
                 let g = &gpu_hits[(y * size + x) as usize];
-                let c = pathlight::cpu::first_hit(&scene, size, size, x, y, 3);
+                let c = pathlight::integrator::first_hit(&scene, size, size, x, y, 3);
                 if g.triangle != c.triangle {
                     ties += 1;
                     continue;
@@ -648,12 +650,10 @@ fn uniform_and_storage_tables_give_the_same_image() {
         let s = RenderSettings { splits, light_tracing: true, ..settings(size, 4, 9) };
         let render = |tables: pathlight::gpu::UniformTables| {
             let kernel = ctx
-                .kernel_variant(
-                    scene.features,
-                    s.splitting(),
-                    pathlight::bvh::SHORT_STACK_SIZE as u32,
+                .kernel(KernelKey {
                     tables,
-                )
+                    ..KernelKey::new(Integrator::Path, scene.features, s.splitting())
+                })
                 .unwrap();
             let mut backend = GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &s).unwrap();
             (common::render(&mut backend, 4), backend.light_traces_caustics())
@@ -681,12 +681,10 @@ fn uniform_and_storage_tables_give_the_same_image() {
     }
     // A kernel whose uniform tables cannot hold a scene is refused, naming the table.
     let kernel = ctx
-        .kernel_variant(
-            large.features,
-            false,
-            pathlight::bvh::SHORT_STACK_SIZE as u32,
-            pathlight::gpu::UniformTables::ALL,
-        )
+        .kernel(KernelKey {
+            tables: pathlight::gpu::UniformTables::ALL,
+            ..KernelKey::new(Integrator::Path, large.features, false)
+        })
         .unwrap();
     let e =
         GpuBackend::with_kernel(ctx.clone(), kernel, &large, &settings(size, 1, 1)).map(|_| ()).unwrap_err();
@@ -706,7 +704,12 @@ fn short_stack_size_does_not_change_the_image() {
     let (size, spp) = (24, 4);
     let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
     let render = |limit: u32| {
-        let kernel = ctx.kernel_with_short_stack_limit(scene.features, false, limit).unwrap();
+        let kernel = ctx
+            .kernel(KernelKey {
+                short_stack_limit: limit,
+                ..KernelKey::new(Integrator::Path, scene.features, false)
+            })
+            .unwrap();
         let mut backend =
             GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &settings(size, spp, 3)).unwrap();
         let film = common::render(&mut backend, spp);
@@ -781,7 +784,12 @@ fn restart_trail_is_exact_past_depth_32() {
             let scene = deep_chain_scene(pairs, 1.5f32.powi(k));
             let depths = common::leaf_depths(&scene.nodes);
             let hits = |limit: u32| {
-                let kernel = ctx.kernel_with_short_stack_limit(scene.features, false, limit).unwrap();
+                let kernel = ctx
+                    .kernel(KernelKey {
+                        short_stack_limit: limit,
+                        ..KernelKey::new(Integrator::Path, scene.features, false)
+                    })
+                    .unwrap();
                 let mut backend =
                     GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &settings(size, 1, 3)).unwrap();
                 backend.first_hits().unwrap()
@@ -790,7 +798,7 @@ fn restart_trail_is_exact_past_depth_32() {
             for y in 0..size {
                 for x in 0..size {
                     let g = &full[(y * size + x) as usize];
-                    let c = pathlight::cpu::first_hit(&scene, size, size, x, y, 3);
+                    let c = pathlight::integrator::first_hit(&scene, size, size, x, y, 3);
                     let what = format!("pairs: {pairs}, 1.5^{k}, ({x},{y})");
                     assert_eq!(
                         g.triangle, c.triangle,
@@ -843,11 +851,12 @@ fn restart_trail_arithmetic_matches_its_twin() {
         }
     }
     let input: Vec<[u32; 4]> = cases.iter().map(|&(t, d)| [(t >> 32) as u32, t as u32, d, 0]).collect();
-    let bvh_files =
-        pathlight::gpu::shader::SHADER_FILES.iter().position(|(name, _)| *name == "bvh.wgsl").unwrap() + 1;
-    let source =
-        pathlight::gpu::shader::compose_with_tables(bvh_files, pathlight::gpu::UniformTables::default())
-            + r#"
+    let common = pathlight::gpu::shader::COMMON_FILES;
+    let bvh_files = common.iter().position(|(name, _)| *name == "bvh.wgsl").unwrap() + 1;
+    let source = pathlight::gpu::shader::compose_with_tables(
+        &common[..bvh_files],
+        pathlight::gpu::UniformTables::default(),
+    ) + r#"
 @group(0) @binding(100) var<storage, read> trail_cases: array<vec4<u32>>;
 @group(0) @binding(101) var<storage, read_write> trail_results: array<vec4<u32>>;
 

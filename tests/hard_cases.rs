@@ -272,7 +272,7 @@ fn a_white_glossy_sphere_under_a_white_sky_shows_its_albedo() {
             let (mut sum_diff, mut sum_var) = (0.0f64, 0.0f64);
             for y in 0..size {
                 for x in 0..size {
-                    let hit = pathlight::cpu::first_hit(&flat, size, size, x, y, 7);
+                    let hit = pathlight::integrator::first_hit(&flat, size, size, x, y, 7);
                     if hit.triangle == u32::MAX {
                         continue;
                     }
@@ -406,7 +406,7 @@ fn coplanar_overlapping_quads_blend_without_speckle() {
     let again = render_both(&both, size, spp, 3);
     // Overlap pixels: both single-quad scenes see their quad there (the floor is grey).
     let on_quad = |scene: &FlatScene, x: u32, y: u32| {
-        let a = pathlight::cpu::first_hit(scene, size, size, x, y, 1).albedo;
+        let a = pathlight::integrator::first_hit(scene, size, size, x, y, 1).albedo;
         (a[0] - a[1]).abs() > 0.5
     };
     let overlap: Vec<usize> = (0..size * size)

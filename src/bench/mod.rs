@@ -39,6 +39,45 @@ pub struct PrepRow {
     pub features: String,
 }
 
+impl PrepRow {
+    /// The markdown table's header lines for [`PrepRow::markdown`].
+    pub const MARKDOWN_HEADER: &'static str = "| scene | triangles | load s | BVH build s | BVH nodes | SAH cost | features |\n|---|---:|---:|---:|---:|---:|---|";
+
+    /// This row as a line of the markdown table.
+    pub fn markdown(&self) -> String {
+        format!(
+            "| {} | {} | {:.3} | {:.3} | {} | {:.2} | {} |",
+            self.scene,
+            self.triangles,
+            self.load_seconds,
+            self.bvh_seconds,
+            self.bvh_nodes,
+            self.sah_cost,
+            self.features
+        )
+    }
+}
+
+impl BenchRow {
+    /// The markdown table's header lines for [`BenchRow::markdown`].
+    pub const MARKDOWN_HEADER: &'static str = "| scene | backend | kernel | kernel build s | spp | seconds | Msamples/s | Mrays/s |\n|---|---|---|---:|---:|---:|---:|---:|";
+
+    /// This row as a line of the markdown table.
+    pub fn markdown(&self) -> String {
+        format!(
+            "| {} | {} | {} | {} | {} | {:.2} | {:.3} | {:.2} |",
+            self.scene,
+            self.backend,
+            self.kernel,
+            self.kernel_build_seconds.map(|s| format!("{s:.3}")).unwrap_or_else(|| "-".into()),
+            self.spp,
+            self.seconds,
+            self.samples_per_second / 1e6,
+            self.rays_per_second / 1e6
+        )
+    }
+}
+
 pub mod peer;
 
 /// A second model placed in a benchmark scene, as [`BenchScene`] composes it.
@@ -189,8 +228,12 @@ pub fn bench_scene(
     if let Some(ctx) = gpu {
         // The kernel `render` uses (specialised, its tables in the adapter's preferred forms)
         // and the general one (every feature, every table a storage buffer).
-        let specialised = ctx.kernel_for_scene(flat, settings.splitting())?;
-        let general = ctx.kernel(SceneFeatures::ALL, settings.splitting())?;
+        let specialised = ctx.kernel_for_scene(flat, settings)?;
+        let general = ctx.kernel(crate::gpu::KernelKey::new(
+            settings.integrator,
+            SceneFeatures::ALL,
+            settings.splitting(),
+        ))?;
         for (label, features, kernel) in
             [("specialised", flat.features, specialised), ("general", SceneFeatures::ALL, general)]
         {

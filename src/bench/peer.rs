@@ -242,6 +242,7 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
         backend: backend.name(),
         spp: settings.spp,
         seed: settings.seed,
+        integrator: settings.integrator,
         max_depth: None,
         sampler: settings.sampler,
         splits: settings.splits,

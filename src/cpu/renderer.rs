@@ -2,9 +2,9 @@
 
 use rayon::prelude::*;
 
-use super::integrator::{radiance, IntegratorSettings};
-use super::light_tracing::{camera_supports_light_tracing, scene_supports_light_tracing, trace_caustic_pass};
 use crate::film::{film_add_sample, Film};
+use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
+use crate::integrator::{light_tracing::trace_caustic_pass, path::radiance, Integrator, IntegratorSettings};
 use crate::render::{Backend, RenderSettings};
 use crate::sampling::{replicate_of, PathSampler};
 use crate::scene::camera::generate_camera_ray;
@@ -146,7 +146,9 @@ impl CpuBackend<'_> {
                         let mut sampler = PathSampler::new(s.sampler, x as u32, y as u32, k, seed);
                         let ray =
                             generate_camera_ray(camera, width, height, x as u32, y as u32, sampler.next_2d());
-                        let l = radiance(scene, integrator, ray, cone, &mut sampler, rays);
+                        let l = match s.integrator {
+                            Integrator::Path => radiance(scene, integrator, ray, cone, &mut sampler, rays),
+                        };
                         film_add_sample(pixel, l + light_traced, replicate_of(k));
                     }
                 }

@@ -28,6 +28,8 @@ pub struct RenderMetadata {
     /// Samples per pixel completed.
     pub spp: u32,
     pub seed: u32,
+    /// The estimator that rendered the image (`--integrator`).
+    pub integrator: crate::integrator::Integrator,
     /// `None`: unlimited (Russian roulette ends paths).
     pub max_depth: Option<u32>,
     /// The sampler: under `sobol` the variance channels over-state the error of the mean
@@ -63,6 +65,7 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
     };
     put("pathlight.spp", AttributeValue::I32(meta.spp as i32));
     put("pathlight.seed", AttributeValue::Text(Text::from(meta.seed.to_string().as_str())));
+    put("pathlight.integrator", AttributeValue::Text(Text::from(meta.integrator.name())));
     put("pathlight.backend", AttributeValue::Text(Text::from(meta.backend.as_str())));
     put("pathlight.renderSeconds", AttributeValue::F64(meta.render_seconds));
     put(

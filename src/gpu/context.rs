@@ -8,6 +8,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use crate::error::{Error, Result};
+use crate::integrator::Integrator;
 use crate::scene::{FlatScene, SceneFeatures};
 
 use super::shader;
@@ -74,23 +75,55 @@ fn type_rank(t: wgpu::DeviceType) -> u32 {
     }
 }
 
-/// The compiled kernels for one feature set (the key they are cached under).
+/// What a kernel is specialised to and cached under: the integrator whose WGSL it is
+/// composed of, the scene features it keeps, whether it can split samples, its traversal's
+/// short-stack limit and the forms it reads the scene's small tables in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct KernelKey {
+    pub integrator: Integrator,
+    pub features: SceneFeatures,
+    /// Can it split samples (`RenderSettings::splits` > 1)? Built without, the kernel has
+    /// no split vertex to keep live across its loop.
+    pub splitting: bool,
+    /// Deferred children the traversal keeps before it restarts from the root (`traverse`
+    /// in shaders/bvh.wgsl); [`crate::bvh::SHORT_STACK_SIZE`] unless a test lowers it (the
+    /// image must not depend on it).
+    pub short_stack_limit: u32,
+    pub tables: UniformTables,
+}
+
+impl KernelKey {
+    /// `integrator`'s kernel for scenes with `features`, able to split if `splitting`,
+    /// reading every table from a storage buffer (so any scene with those features).
+    pub fn new(integrator: Integrator, features: SceneFeatures, splitting: bool) -> KernelKey {
+        KernelKey {
+            integrator,
+            features,
+            splitting,
+            short_stack_limit: crate::bvh::SHORT_STACK_SIZE as u32,
+            tables: UniformTables::default(),
+        }
+    }
+}
+
+/// The compiled kernels for one [`KernelKey`].
 pub struct Kernel {
+    pub key: KernelKey,
     pub render: wgpu::ComputePipeline,
     pub first_hit: wgpu::ComputePipeline,
     /// Wall time to build the `render` pipeline (override specialisation, SPIR-V generation
     /// and the driver's compile).
     pub build_seconds: f64,
-    /// Can it split samples (`RenderSettings::splits` > 1)? Built without, the kernel has no
-    /// split vertex to keep live across its loop.
+    /// Can it split samples (`key.splitting`)?
     pub splitting: bool,
-    /// The forms it reads the scene's small tables in; a scene's bind group must match.
+    /// The forms it reads the scene's small tables in (`key.tables`); a scene's bind group
+    /// must match.
     pub tables: UniformTables,
     /// The module and layouts of those forms.
     pub(crate) source: Arc<KernelModule>,
 }
 
-/// The kernel's shader module for one [`UniformTables`], with the bind-group and pipeline
+/// An integrator's shader module for one [`UniformTables`], with the bind-group and pipeline
 /// layouts whose bindings 0, 1, 3 and 4 take the matching buffer types.
 pub(crate) struct KernelModule {
     module: wgpu::ShaderModule,
@@ -101,10 +134,6 @@ pub(crate) struct KernelModule {
 /// The kernel's bindings, 0 to 19 of group 0 (shaders/bindings.wgsl and src/gpu/tables.rs).
 const KERNEL_BINDINGS: u32 = 20;
 
-/// What a kernel is cached under: the scene features it is specialised to, whether it can
-/// split, its traversal's short-stack limit and its tables' forms.
-type KernelKey = (SceneFeatures, bool, u32, UniformTables);
-
 /// A device ready to render, with its compiled kernels.
 pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
@@ -113,8 +142,8 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     /// Errors wgpu reported outside any error scope (kept, then returned by `check`).
     uncaptured: Arc<Mutex<Vec<String>>>,
-    /// The kernel's module and layouts per table forms, made on first use.
-    modules: Mutex<HashMap<UniformTables, Arc<KernelModule>>>,
+    /// Each integrator's module and layouts per table forms, made on first use.
+    modules: Mutex<HashMap<(Integrator, UniformTables), Arc<KernelModule>>>,
     kernels: Mutex<HashMap<KernelKey, Arc<Kernel>>>,
     /// The light tracer's kernels (`trace_caustics`), by the scene features and table forms
     /// they were built for: built only for scenes whose caustics are light traced.
@@ -181,20 +210,21 @@ impl GpuContext {
             kernels: Mutex::new(HashMap::new()),
             caustic_kernels: Mutex::new(HashMap::new()),
         };
-        // The all-storage module now, so that a kernel the driver rejects fails here.
-        ctx.module(UniformTables::default())?;
+        // The path tracer's all-storage module now, so that a kernel the driver rejects
+        // fails here.
+        ctx.module(Integrator::Path, UniformTables::default())?;
         Ok(ctx)
     }
 
-    /// The kernel's module and layouts reading the tables in the forms `tables`, made on
+    /// `integrator`'s module and layouts reading the tables in the forms `tables`, made on
     /// first use.
-    fn module(&self, tables: UniformTables) -> Result<Arc<KernelModule>> {
+    fn module(&self, integrator: Integrator, tables: UniformTables) -> Result<Arc<KernelModule>> {
         let mut modules = self.modules.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(m) = modules.get(&tables) {
+        if let Some(m) = modules.get(&(integrator, tables)) {
             return Ok(m.clone());
         }
         let device = &self.device;
-        let source = shader::kernel_source(tables);
+        let source = shader::kernel_source(integrator, tables);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("pathlight megakernel"),
@@ -203,7 +233,9 @@ impl GpuContext {
         if let Some(e) = pollster::block_on(scope.pop()) {
             // wgpu parsed the composed source; naga again only to name the shader file and
             // line of the problem.
-            let at = shader::parse_and_validate(&source).err().unwrap_or_default();
+            let at = shader::parse_and_validate(&source, &shader::kernel_files(integrator))
+                .err()
+                .unwrap_or_default();
             return Err(Error::Gpu(format!("kernel rejected by wgpu: {e} {at}")));
         }
 
@@ -238,7 +270,7 @@ impl GpuContext {
             immediate_size: 0,
         });
         let m = Arc::new(KernelModule { module, bind_group_layout, pipeline_layout });
-        modules.insert(tables, m.clone());
+        modules.insert((integrator, tables), m.clone());
         Ok(m)
     }
 
@@ -261,58 +293,47 @@ impl GpuContext {
         }
     }
 
-    /// The kernels `scene` renders with: specialised to its features, reading its tables in
-    /// the forms this adapter prefers ([`Self::tables_for`]), able to split if `splitting`.
-    pub fn kernel_for_scene(&self, scene: &FlatScene, splitting: bool) -> Result<Arc<Kernel>> {
-        self.kernel_variant(
-            scene.features,
-            splitting,
-            crate::bvh::SHORT_STACK_SIZE as u32,
-            self.tables_for(scene),
-        )
+    /// The key of the kernel `scene` renders with under `settings`: their integrator,
+    /// specialised to the scene's features, reading its tables in the forms this adapter
+    /// prefers ([`Self::tables_for`]), able to split if the settings split.
+    pub fn kernel_key(&self, scene: &FlatScene, settings: &crate::RenderSettings) -> KernelKey {
+        KernelKey {
+            tables: self.tables_for(scene),
+            ..KernelKey::new(settings.integrator, scene.features, settings.splitting())
+        }
     }
 
-    /// The kernels specialised to `features`, able to split samples if `splitting`, reading
-    /// every table from a storage buffer (so any scene with those features), built on first
-    /// use and cached.
-    pub fn kernel(&self, features: SceneFeatures, splitting: bool) -> Result<Arc<Kernel>> {
-        self.kernel_with_short_stack_limit(features, splitting, crate::bvh::SHORT_STACK_SIZE as u32)
-    }
-
-    /// [`GpuContext::kernel`] whose traversal keeps `limit` deferred children instead of
-    /// [`crate::bvh::SHORT_STACK_SIZE`] and restarts from the root more often (`traverse` in
-    /// shaders/bvh.wgsl); the image must not depend on it (tests).
-    pub fn kernel_with_short_stack_limit(
+    /// The kernels `scene` renders with under `settings` ([`Self::kernel_key`]).
+    pub fn kernel_for_scene(
         &self,
-        features: SceneFeatures,
-        splitting: bool,
-        limit: u32,
+        scene: &FlatScene,
+        settings: &crate::RenderSettings,
     ) -> Result<Arc<Kernel>> {
-        self.kernel_variant(features, splitting, limit, UniformTables::default())
+        self.kernel(self.kernel_key(scene, settings))
     }
 
-    /// The kernels specialised to `features`, able to split if `splitting`, with the
-    /// traversal's short-stack limit `limit`, reading the tables in the forms `tables`;
-    /// built on first use and cached.
-    pub fn kernel_variant(
-        &self,
-        features: SceneFeatures,
-        splitting: bool,
-        limit: u32,
-        tables: UniformTables,
-    ) -> Result<Arc<Kernel>> {
+    /// The kernels for `key`, built on first use and cached.
+    pub fn kernel(&self, key: KernelKey) -> Result<Arc<Kernel>> {
         let mut cache = self.kernels.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(k) = cache.get(&(features, splitting, limit, tables)) {
+        if let Some(k) = cache.get(&key) {
             return Ok(k.clone());
         }
-        let source = self.module(tables)?;
-        let mut constants = feature_constants(features);
-        constants.push(("SHORT_STACK_LIMIT", limit as f64));
-        constants.push(("SPLITTING", if splitting { 1.0 } else { 0.0 }));
+        let source = self.module(key.integrator, key.tables)?;
+        let mut constants = feature_constants(key.features);
+        constants.push(("SHORT_STACK_LIMIT", key.short_stack_limit as f64));
+        constants.push(("SPLITTING", if key.splitting { 1.0 } else { 0.0 }));
         let (render, build_seconds) = self.build_pipeline(&source, "render", &constants)?;
         let (first_hit, _) = self.build_pipeline(&source, "first_hit", &constants)?;
-        let kernel = Arc::new(Kernel { render, first_hit, build_seconds, splitting, tables, source });
-        cache.insert((features, splitting, limit, tables), kernel.clone());
+        let kernel = Arc::new(Kernel {
+            key,
+            render,
+            first_hit,
+            build_seconds,
+            splitting: key.splitting,
+            tables: key.tables,
+            source,
+        });
+        cache.insert(key, kernel.clone());
         Ok(kernel)
     }
 
@@ -328,7 +349,8 @@ impl GpuContext {
         if let Some(k) = cache.get(&(features, tables)) {
             return Ok(k.clone());
         }
-        let source = self.module(tables)?;
+        // The light tracer is the path tracer's partner: its entry point is in that kernel.
+        let source = self.module(Integrator::Path, tables)?;
         let (pipeline, _) = self.build_pipeline(&source, "trace_caustics", &feature_constants(features))?;
         let pipeline = Arc::new(pipeline);
         cache.insert((features, tables), pipeline.clone());

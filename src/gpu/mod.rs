@@ -7,6 +7,6 @@ mod renderer;
 pub mod shader;
 pub mod tables;
 
-pub use context::{describe_adapter, enumerate_adapters, hardware_adapter, GpuContext, Kernel};
+pub use context::{describe_adapter, enumerate_adapters, hardware_adapter, GpuContext, Kernel, KernelKey};
 pub use renderer::GpuBackend;
 pub use tables::UniformTables;

@@ -54,7 +54,7 @@ pub struct GpuBackend {
     /// one unused pixel unless the scene's caustics may be light traced).
     caustics: wgpu::Buffer,
     /// The light tracer's kernel, where the settings ask for light tracing and the scene
-    /// allows it (`crate::cpu::scene_supports_light_tracing`).
+    /// allows it (`crate::integrator::scene_supports_light_tracing`).
     caustics_kernel: Option<Arc<wgpu::ComputePipeline>>,
     /// The sample index whose light-traced image `caustics` holds.
     caustic_pass: Option<u32>,
@@ -63,7 +63,7 @@ pub struct GpuBackend {
 impl GpuBackend {
     /// Uploads `scene` and builds (or fetches from the cache) its specialised kernel.
     pub fn new(ctx: Arc<GpuContext>, scene: &FlatScene, settings: &RenderSettings) -> Result<GpuBackend> {
-        Self::with_kernel(ctx.clone(), ctx.kernel_for_scene(scene, settings.splitting())?, scene, settings)
+        Self::with_kernel(ctx.clone(), ctx.kernel_for_scene(scene, settings)?, scene, settings)
     }
 
     /// As [`Self::new`] but with an explicit kernel (e.g. the un-specialised one, to measure
@@ -75,6 +75,12 @@ impl GpuBackend {
         settings: &RenderSettings,
     ) -> Result<GpuBackend> {
         let start = Instant::now();
+        if kernel.key.integrator != settings.integrator {
+            return Err(Error::Gpu(format!(
+                "--integrator {}: this kernel is the {} integrator's",
+                settings.integrator, kernel.key.integrator
+            )));
+        }
         if settings.splitting() && !kernel.splitting {
             return Err(Error::Settings(format!(
                 "--splits {}: this kernel was built without splitting",
@@ -183,11 +189,12 @@ impl GpuBackend {
         let first_hits = zeroed("first-hit buffer", pixels * std::mem::size_of::<FirstHit>() as u64)?;
         let ray_counts = zeroed("ray-count buffer", pixels * 4)?;
         // Light tracing as the CPU backend decides it (`CpuBackend::light_traces_caustics`).
-        let caustics_kernel = if settings.light_tracing && crate::cpu::scene_supports_light_tracing(scene) {
-            Some(ctx.caustics_kernel(scene.features, kernel.tables)?)
-        } else {
-            None
-        };
+        let caustics_kernel =
+            if settings.light_tracing && crate::integrator::scene_supports_light_tracing(scene) {
+                Some(ctx.caustics_kernel(scene.features, kernel.tables)?)
+            } else {
+                None
+            };
         // Two words per channel (a 64-bit fixed-point sum) per pixel.
         let caustic_pixels = if caustics_kernel.is_some() { pixels } else { 1 };
         let caustics = zeroed("light-traced image", caustic_pixels * 6 * 4)?;
@@ -263,7 +270,7 @@ impl GpuBackend {
     /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
     /// the scene and camera allow it)? As `CpuBackend::light_traces_caustics`.
     pub fn light_traces_caustics(&self) -> bool {
-        self.caustics_kernel.is_some() && crate::cpu::camera_supports_light_tracing(&self.camera)
+        self.caustics_kernel.is_some() && crate::integrator::camera_supports_light_tracing(&self.camera)
     }
 
     /// Samples' worth of rays one sample index may trace per pixel, for the bound on the
@@ -401,7 +408,7 @@ impl GpuBackend {
     /// What the camera ray of sample 0 of every pixel hits.
     pub fn first_hits(&mut self) -> Result<Vec<FirstHit>> {
         // The first-hit AOV reads textures at a one-sample render's level of detail, as
-        // `cpu::first_hit` does.
+        // `integrator::first_hit` does.
         let cone = crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, 1);
         let params = FrameParams {
             cone_width: cone.width,

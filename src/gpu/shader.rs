@@ -1,12 +1,19 @@
 //! The megakernel's WGSL: one file per concept under `shaders/`, composed in one declared
-//! order (each file may use what the files before it declare), then the declarations of the
-//! scene's small tables in the forms the kernel reads them in ([`UniformTables`]). Errors
-//! are reported against the file and line they come from.
+//! order (each file may use what the files before it declare): the files every integrator
+//! shares ([`COMMON_FILES`]), then the integrator's own ([`integrator_files`]), then the
+//! declarations of the scene's small tables in the forms the kernel reads them in
+//! ([`UniformTables`]). Errors are reported against the file and line they come from.
 
 use super::tables::UniformTables;
+use crate::integrator::Integrator;
 
-/// The kernel's source files, in dependency order.
-pub const SHADER_FILES: &[(&str, &str)] = &[
+/// A shader file: its name under `shaders/` and its text.
+pub type ShaderFile = (&'static str, &'static str);
+
+/// The files every integrator's kernel is built on, in dependency order: the layout and the
+/// scene's features, the bindings, sampling, geometry, materials, lights, the camera and the
+/// film, then what the integrators share (`src/integrator/`'s twins).
+pub const COMMON_FILES: &[ShaderFile] = &[
     ("layout.wgsl", include_str!("../../shaders/layout.wgsl")),
     ("features.wgsl", include_str!("../../shaders/features.wgsl")),
     ("bindings.wgsl", include_str!("../../shaders/bindings.wgsl")),
@@ -19,14 +26,36 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("light.wgsl", include_str!("../../shaders/light.wgsl")),
     ("camera.wgsl", include_str!("../../shaders/camera.wgsl")),
     ("film.wgsl", include_str!("../../shaders/film.wgsl")),
-    ("integrator.wgsl", include_str!("../../shaders/integrator.wgsl")),
+    ("interaction.wgsl", include_str!("../../shaders/interaction.wgsl")),
+    ("mis.wgsl", include_str!("../../shaders/mis.wgsl")),
+    ("roulette.wgsl", include_str!("../../shaders/roulette.wgsl")),
+    ("partition.wgsl", include_str!("../../shaders/partition.wgsl")),
+];
+
+/// The path tracer's entry point (`render`) and its caustic light tracer's
+/// (`trace_caustics`).
+const PATH_FILES: &[ShaderFile] = &[
+    ("path.wgsl", include_str!("../../shaders/path.wgsl")),
     ("light_tracing.wgsl", include_str!("../../shaders/light_tracing.wgsl")),
 ];
 
-/// The composed source of the first `count` files.
-pub fn compose(count: usize) -> String {
+/// The files that follow [`COMMON_FILES`] in `integrator`'s kernel: its WGSL twins, named as
+/// its CPU half in `src/integrator/` is.
+pub fn integrator_files(integrator: Integrator) -> &'static [ShaderFile] {
+    match integrator {
+        Integrator::Path => PATH_FILES,
+    }
+}
+
+/// Every file of `integrator`'s kernel, in order.
+pub fn kernel_files(integrator: Integrator) -> Vec<ShaderFile> {
+    COMMON_FILES.iter().chain(integrator_files(integrator)).copied().collect()
+}
+
+/// The composed source of `files`, each after a header line naming it.
+pub fn compose(files: &[ShaderFile]) -> String {
     let mut out = String::new();
-    for (name, text) in &SHADER_FILES[..count] {
+    for (name, text) in files {
         out.push_str(&format!("// ---- shaders/{name}\n"));
         out.push_str(text);
         if !text.ends_with('\n') {
@@ -38,28 +67,28 @@ pub fn compose(count: usize) -> String {
 
 /// The viewer's display pass: the shared layout, then `shaders/display.wgsl`.
 pub fn display_source() -> String {
-    format!("{}{}", compose(1), include_str!("../../shaders/display.wgsl"))
+    format!("{}{}", compose(&COMMON_FILES[..1]), include_str!("../../shaders/display.wgsl"))
 }
 
-/// The whole kernel, reading the scene's small tables in the forms `tables` gives them.
-/// WGSL lets module-scope declarations come in any order, so the generated declarations
-/// follow the files and `locate` still maps every file's lines.
-pub fn kernel_source(tables: UniformTables) -> String {
-    compose_with_tables(SHADER_FILES.len(), tables)
+/// `integrator`'s whole kernel, reading the scene's small tables in the forms `tables` gives
+/// them. WGSL lets module-scope declarations come in any order, so the generated
+/// declarations follow the files and [`locate`] still maps every file's lines.
+pub fn kernel_source(integrator: Integrator, tables: UniformTables) -> String {
+    compose_with_tables(&kernel_files(integrator), tables)
 }
 
-/// The first `count` files followed by the declarations of the scene's tables in the forms
-/// `tables` (what a test kernel built from part of the files needs).
-pub fn compose_with_tables(count: usize, tables: UniformTables) -> String {
-    let mut source = compose(count);
+/// `files` followed by the declarations of the scene's tables in the forms `tables` (what a
+/// test kernel built from part of the files needs).
+pub fn compose_with_tables(files: &[ShaderFile], tables: UniformTables) -> String {
+    let mut source = compose(files);
     source.push_str(&tables.declarations());
     source
 }
 
-/// Maps a 1-based line of the composed source back to `shaders/<file>:<line>`.
-pub fn locate(line: u32) -> String {
+/// Maps a 1-based line of the source composed from `files` back to `shaders/<file>:<line>`.
+pub fn locate(files: &[ShaderFile], line: u32) -> String {
     let mut start = 1u32;
-    for (name, text) in SHADER_FILES {
+    for (name, text) in files {
         let lines = text.lines().count() as u32 + 1; // + the header line
         if line < start + lines {
             return format!("shaders/{name}:{}", line - start);
@@ -69,16 +98,17 @@ pub fn locate(line: u32) -> String {
     format!("composed kernel line {line}")
 }
 
-/// Parses and validates WGSL with naga, as wgpu will; errors name the shader file and line.
-pub fn parse_and_validate(source: &str) -> Result<naga::Module, String> {
+/// Parses and validates WGSL composed from `files` with naga, as wgpu will; errors name the
+/// shader file and line.
+pub fn parse_and_validate(source: &str, files: &[ShaderFile]) -> Result<naga::Module, String> {
     let module = naga::front::wgsl::parse_str(source).map_err(|e| {
-        let at = e.location(source).map(|l| locate(l.line_number)).unwrap_or_default();
+        let at = e.location(source).map(|l| locate(files, l.line_number)).unwrap_or_default();
         format!("{at}: {}", e.emit_to_string(source))
     })?;
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
         .validate(&module)
         .map_err(|e| {
-            let at = e.location(source).map(|l| locate(l.line_number)).unwrap_or_default();
+            let at = e.location(source).map(|l| locate(files, l.line_number)).unwrap_or_default();
             format!("{at}: {}", e.emit_to_string(source))
         })?;
     Ok(module)
@@ -91,42 +121,53 @@ mod tests {
 
     #[test]
     fn every_wgsl_file_validates_with_its_dependencies() {
-        for i in 1..=SHADER_FILES.len() {
-            if let Err(e) = parse_and_validate(&compose_with_tables(i, UniformTables::default())) {
-                panic!("{} does not validate: {e}", SHADER_FILES[i - 1].0);
+        for integrator in Integrator::ALL {
+            let files = kernel_files(integrator);
+            for i in 1..=files.len() {
+                if let Err(e) =
+                    parse_and_validate(&compose_with_tables(&files[..i], UniformTables::default()), &files)
+                {
+                    panic!("{} ({integrator} kernel) does not validate: {e}", files[i - 1].0);
+                }
             }
         }
     }
 
-    /// The kernel validates with each table in either form (uniform arrays have stricter
-    /// layout rules than storage ones).
+    /// Each integrator's kernel validates with each table in either form (uniform arrays
+    /// have stricter layout rules than storage ones).
     #[test]
     fn kernel_validates_with_every_table_form() {
-        for bits in 0..16u32 {
-            let tables = UniformTables {
-                nodes: bits & 1 != 0,
-                triangles: bits & 2 != 0,
-                materials: bits & 4 != 0,
-                lights: bits & 8 != 0,
-            };
-            if let Err(e) = parse_and_validate(&kernel_source(tables)) {
-                panic!("the kernel with {tables:?} does not validate: {e}");
+        for integrator in Integrator::ALL {
+            for bits in 0..16u32 {
+                let tables = UniformTables {
+                    nodes: bits & 1 != 0,
+                    triangles: bits & 2 != 0,
+                    materials: bits & 4 != 0,
+                    lights: bits & 8 != 0,
+                };
+                if let Err(e) =
+                    parse_and_validate(&kernel_source(integrator, tables), &kernel_files(integrator))
+                {
+                    panic!("the {integrator} kernel with {tables:?} does not validate: {e}");
+                }
             }
         }
     }
 
     #[test]
     fn locate_maps_lines_to_files() {
-        assert_eq!(locate(2), "shaders/layout.wgsl:1");
-        let layout_lines = SHADER_FILES[0].1.lines().count() as u32;
-        assert_eq!(locate(layout_lines + 3), "shaders/features.wgsl:1");
+        assert_eq!(locate(COMMON_FILES, 2), "shaders/layout.wgsl:1");
+        let layout_lines = COMMON_FILES[0].1.lines().count() as u32;
+        assert_eq!(locate(COMMON_FILES, layout_lines + 3), "shaders/features.wgsl:1");
     }
 
     /// Every struct in `src/scene/layout.rs` exists in WGSL with the same size and the same
     /// field offsets, and every shared constant has the same value.
     #[test]
     fn layout_matches_wgsl() {
-        let module = parse_and_validate(&kernel_source(UniformTables::default())).unwrap();
+        let files = kernel_files(Integrator::Path);
+        let module =
+            parse_and_validate(&kernel_source(Integrator::Path, UniformTables::default()), &files).unwrap();
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).unwrap();
         for (name, size, fields) in layout::all_layouts() {
@@ -184,9 +225,9 @@ mod tests {
             ("DISPLAY_RELATIVE_ERROR", layout::DISPLAY_RELATIVE_ERROR as f64),
             ("PROJECTION_ORTHOGRAPHIC", layout::PROJECTION_ORTHOGRAPHIC as f64),
             ("SHORT_STACK_SIZE", crate::bvh::SHORT_STACK_SIZE as f64),
-            ("MAX_BOUNCES_GUARD", crate::cpu::MAX_BOUNCES_GUARD as f64),
-            ("RR_MAX_SURVIVAL", crate::cpu::RR_MAX_SURVIVAL as f64),
-            ("RR_ANY_BOUNCE_DEPTH", crate::cpu::RR_ANY_BOUNCE_DEPTH as f64),
+            ("MAX_BOUNCES_GUARD", crate::integrator::MAX_BOUNCES_GUARD as f64),
+            ("RR_MAX_SURVIVAL", crate::integrator::RR_MAX_SURVIVAL as f64),
+            ("RR_ANY_BOUNCE_DEPTH", crate::integrator::RR_ANY_BOUNCE_DEPTH as f64),
             ("LOBE_SELECTION_FLOOR", crate::bsdf::LOBE_SELECTION_FLOOR as f64),
             ("MIN_ALPHA", crate::bsdf::MIN_ALPHA as f64),
             ("CLEARCOAT_F0", crate::bsdf::CLEARCOAT_F0 as f64),
@@ -196,10 +237,10 @@ mod tests {
             ("SHADOW_EPSILON", crate::geometry::SHADOW_EPSILON as f64),
             ("DIMENSION_STEP", crate::sampling::DIMENSION_STEP as f64),
             ("SPLIT_STREAM_SALT", crate::sampling::SPLIT_STREAM_SALT as f64),
-            ("LIGHT_RR_MIN_VERTICES", crate::cpu::LIGHT_RR_MIN_VERTICES as f64),
-            ("LIGHT_PATH_STREAM", crate::cpu::LIGHT_PATH_STREAM as f64),
-            ("CAUSTIC_FRACTION_BITS", crate::cpu::CAUSTIC_FRACTION_BITS as f64),
-            ("CAUSTIC_MAX_FIXED", crate::cpu::CAUSTIC_MAX_FIXED as f64),
+            ("LIGHT_RR_MIN_VERTICES", crate::integrator::LIGHT_RR_MIN_VERTICES as f64),
+            ("LIGHT_PATH_STREAM", crate::integrator::LIGHT_PATH_STREAM as f64),
+            ("CAUSTIC_FRACTION_BITS", crate::integrator::CAUSTIC_FRACTION_BITS as f64),
+            ("CAUSTIC_MAX_FIXED", crate::integrator::CAUSTIC_MAX_FIXED as f64),
         ];
         for (name, value) in shared {
             assert_eq!(constant(name), *value, "constant {name}: WGSL vs Rust");

@@ -363,7 +363,7 @@ impl PathSampler {
     }
 
     /// The numbers of continuation `j` of `splits` when a path is split
-    /// (`cpu::integrator::radiance`), from the next dimension on.
+    /// (`integrator::path::radiance`), from the next dimension on.
     ///
     /// Sobol: the sample's index within its replicate, i, becomes i·splits + j, and the
     /// dimensions go on from where the path has reached. Each dimension shuffles its index

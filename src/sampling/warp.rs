@@ -68,26 +68,9 @@ pub fn sample_uniform_triangle(u: Vec2) -> Vec3 {
     Vec3::new(b0, b1, 1.0 - b0 - b1)
 }
 
-/// The power heuristic with β = 2 for two strategies of one sample each (Veach 1997,
-/// §9.2.4): pdf_this² / (pdf_this² + pdf_other²), evaluated through the ratio of the smaller
-/// density to the larger so that nothing is squared past f32's range (tiny bright lights
-/// have solid-angle densities above 1e19).
-pub fn power_heuristic(pdf_this: f32, pdf_other: f32) -> f32 {
-    if pdf_this <= 0.0 {
-        return 0.0;
-    }
-    if pdf_this >= pdf_other {
-        let r = pdf_other / pdf_this;
-        1.0 / (1.0 + r * r)
-    } else {
-        let r = pdf_this / pdf_other;
-        r * r / (1.0 + r * r)
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{power_heuristic, sin_cos_quarter_pi};
+    use super::sin_cos_quarter_pi;
 
     /// The polynomials are within 2 ulp of sin and cos (evaluated in f64) over the whole
     /// interval they serve: Cephes documents about 1 ulp, and 2 leaves room for the order
@@ -112,14 +95,5 @@ mod tests {
                 "cos {x}: {cos} against {want_cos}"
             );
         }
-    }
-
-    #[test]
-    fn power_heuristic_is_stable_at_extremes() {
-        assert_eq!(power_heuristic(0.0, 1.0), 0.0);
-        assert!((power_heuristic(1.0, 1.0) - 0.5).abs() < 1e-7);
-        assert!((power_heuristic(2.0, 1.0) - 0.8).abs() < 1e-7);
-        assert!((power_heuristic(1e30, 1e29) + power_heuristic(1e29, 1e30) - 1.0).abs() < 1e-6);
-        assert_eq!(power_heuristic(1.0, 0.0), 1.0);
     }
 }

@@ -355,7 +355,7 @@ gpu_struct! {
         /// Most scattering events a path may have (`u32::MAX`: unlimited).
         pub max_depth: u32,
         /// Russian roulette applies once a path has this many non-delta scattering events
-        /// (`crate::cpu::IntegratorSettings::rr_min_depth`).
+        /// (`crate::integrator::IntegratorSettings::rr_min_depth`).
         pub rr_min_depth: u32,
         pub light_count: u32,
         /// First image row of this dispatch.
@@ -370,7 +370,7 @@ gpu_struct! {
         pub sampler_kind: u32,
         /// Continuations per camera sample (`RenderSettings::splits`; 1: no splitting).
         pub splits: u32,
-        /// 1: the caustic paths are light traced (`crate::cpu::supports_light_tracing`):
+        /// 1: the caustic paths are light traced (`crate::integrator::supports_light_tracing`):
         /// `render` leaves them out and adds the light tracer's image for its one sample
         /// index (`samples` is then 1); 0: every path is path traced.
         pub light_traced_caustics: u32,

@@ -15,6 +15,10 @@
 //! resumed, and the resumed film equals an uninterrupted one, because every sample's random
 //! stream depends only on (pixel, sample index, seed).
 
+mod job;
+
+pub use job::{check_outputs, check_target_error, JobEvent, JobReport, RenderJob};
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -23,6 +27,7 @@ use crate::cpu::CpuBackend;
 use crate::error::{Error, Result};
 use crate::film::{write_exr, write_png, Film, RenderMetadata, Tonemap};
 use crate::gpu::{enumerate_adapters, GpuBackend, GpuContext};
+use crate::integrator::Integrator;
 use crate::light::EnvironmentDesc;
 use crate::render::{render_progressive_from, Backend, RenderSettings, RenderStats};
 use crate::sampling::SamplerKind;
@@ -68,6 +73,8 @@ pub struct SessionOptions {
     /// Samples per pixel the session aims for (it also sizes the texture filter's cone).
     pub spp: u32,
     pub seed: u32,
+    /// The estimator (`--integrator`).
+    pub integrator: Integrator,
     pub max_depth: Option<u32>,
     /// Where the paths' random numbers come from.
     pub sampler: SamplerKind,
@@ -94,6 +101,7 @@ impl SessionOptions {
             height: None,
             spp: 64,
             seed: 0,
+            integrator: Integrator::default(),
             max_depth: None,
             sampler: SamplerKind::default(),
             splits: None,
@@ -198,6 +206,7 @@ impl Session {
             height,
             spp: options.spp,
             seed: options.seed,
+            integrator: options.integrator,
             max_depth: options.max_depth,
             sampler: options.sampler,
             // A count asked for is checked here, before any work; without one the chosen
@@ -419,6 +428,7 @@ impl Session {
             backend: self.backend.name(),
             spp: self.spp_done,
             seed: self.settings.seed,
+            integrator: self.settings.integrator,
             max_depth: self.settings.max_depth,
             sampler: self.settings.sampler,
             splits: self.settings.splits,

@@ -1,24 +1,12 @@
-//! Caustic paths by light tracing: a partition of path space between the path tracer and a
-//! light tracer that connects to the camera.
+//! Caustic paths by light tracing: the light tracer that takes its half of path space
+//! (`super::partition`) from the path tracer and connects each of its vertices to the camera.
 //!
-//! A path tracer finds a caustic (light reaching a diffuse surface through glass or a mirror)
-//! only when a BSDF sample from the diffuse surface happens to pass through the delta
-//! chain and hit the light: next-event estimation cannot see the light through a delta
-//! lobe. Those rare, bright samples were 96% of the glass Cornell box's variance
-//! (bench/RESULTS.md, thirteenth session). A light tracer finds the same paths the other
-//! way round: light → glass → floor, then a connection from the floor to the camera, as
-//! the caustic photon map does (Jensen 1996, "Global Illumination using Photon Maps") and
-//! as the t = 1 strategy of bidirectional path tracing does (Veach 1997 §10.2).
-//!
-//! The two estimators share the work by a fixed partition, so no MIS weights are needed
-//! and each path is counted exactly once. A path x₀ (camera) x₁ … x_{k−1} x_k (light)
-//! belongs to light tracing when
-//! * x₁ scattered by a non-delta lobe (the camera can be connected to it), and
-//! * x_{k−1}, the vertex next to the light, scattered by a delta lobe (NEE cannot sample
-//!   it, so the path tracer would only find it by chance),
-//!
-//! and to the path tracer otherwise (`IntegratorSettings::caustics_by_light_tracing` drops
-//! exactly these paths there). Both halves are unbiased, so the sum is.
+//! A path tracer finds a caustic only by chance: those rare, bright samples were 96% of the
+//! glass Cornell box's variance (`bench/history/light-tracing.md`). A light tracer finds the
+//! same paths the other way round: light → glass → floor, then a connection from the floor
+//! to the camera, as the caustic photon map does (Jensen 1996, "Global Illumination using
+//! Photon Maps") and as the t = 1 strategy of bidirectional path tracing does (Veach 1997
+//! §10.2).
 //!
 //! Per sample index k, [`trace_caustic_pass`] traces one light path per pixel and returns
 //! the image of their camera connections divided by that count: an unbiased estimate of
@@ -36,25 +24,22 @@
 //! * shading normals make the adjoint BSDF differ by |ωₗ·nₛ||ωₙ·n_g| / (|ωₗ·n_g||ωₙ·nₛ|)
 //!   (ωₗ towards the light, ωₙ the sampled direction).
 //!
-//! Only scenes where the light tracer computes exactly what the path tracer drops use it
-//! ([`supports_light_tracing`]): a pinhole camera; materials that are either purely
-//! Lambertian or purely delta (the adjoint of any other glTF layering, whose directional
-//! albedo scalings are not reciprocal, is not the BSDF with its arguments swapped); no
-//! textures or alpha; at least one emissive triangle and one delta material.
+//! Only scenes where it computes exactly what the path tracer drops use it
+//! ([`super::partition::supports_light_tracing`]).
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::integrator::{sides_agree, surface_interaction, IntegratorSettings, MAX_BOUNCES_GUARD};
+use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
+use super::roulette::{survival_probability, MAX_BOUNCES_GUARD};
+use super::IntegratorSettings;
 use crate::bsdf::GltfBsdf;
 use crate::bvh::ClosestHit;
 use crate::geometry::{spawn_ray, spawn_ray_to, Frame, Ray, TriangleHit};
 use crate::light::{choose_light, sample_triangle_point, triangle_light_normal_area};
 use crate::sampling::{sample_cosine_hemisphere, Rng};
 use crate::scene::camera::PinholeProjection;
-use crate::scene::layout::{
-    Camera, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME, PROJECTION_PERSPECTIVE,
-};
+use crate::scene::layout::{Camera, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
 use crate::scene::texture::emitted_radiance;
 use crate::scene::FlatScene;
 
@@ -95,47 +80,6 @@ pub fn caustic_from_fixed(x: u64) -> f32 {
     let high = (x >> 32) as u32 as f32 * (1u64 << (32 - CAUSTIC_FRACTION_BITS)) as f32;
     let low = x as u32 as f32 * (1.0 / (1u32 << CAUSTIC_FRACTION_BITS) as f32);
     high + low
-}
-
-/// Can the light tracer take over the caustic paths of `scene` seen through `camera`?
-/// See the module documentation for why each condition is there. Reads every triangle:
-/// call it once per scene and camera.
-pub fn supports_light_tracing(scene: &FlatScene, camera: &Camera) -> bool {
-    camera_supports_light_tracing(camera) && scene_supports_light_tracing(scene)
-}
-
-/// The camera's half of [`supports_light_tracing`]: a pinhole (the connection's importance
-/// is a pinhole's).
-pub fn camera_supports_light_tracing(camera: &Camera) -> bool {
-    camera.projection == PROJECTION_PERSPECTIVE
-}
-
-/// The scene's half of [`supports_light_tracing`].
-pub fn scene_supports_light_tracing(scene: &FlatScene) -> bool {
-    let f = &scene.features;
-    if f.textures
-        || f.alpha
-        || f.normal_maps
-        || f.clearcoat
-        || f.sheen
-        || !scene.lights.iter().any(|l| l.kind == LIGHT_TRIANGLE)
-    {
-        return false;
-    }
-    let mut any_delta = false;
-    for (m, _) in scene.materials.iter().zip(&scene.used_materials).filter(|(_, used)| **used) {
-        // Seen from either side: a refracting solid's BSDF depends on the side.
-        let sides = [true, false].map(|front| GltfBsdf::new(m, Vec3::Z, front, Vec3::Z));
-        // Lambertian, or black (no lobe at all: it scatters nothing either way).
-        if sides.iter().all(|b| b.is_lambertian() || b.lobe_probabilities().iter().all(|&p| p == 0.0)) {
-            continue;
-        }
-        if sides.iter().any(|b| b.has_non_delta()) {
-            return false;
-        }
-        any_delta = true;
-    }
-    any_delta
 }
 
 /// The light-traced half of every pixel for sample index `pass`: one light path per pixel,
@@ -269,7 +213,7 @@ fn trace_light_path(
             return;
         }
         if j >= LIGHT_RR_MIN_VERTICES {
-            let survival = (beta.max_element() * roulette_scale).min(super::RR_MAX_SURVIVAL);
+            let survival = survival_probability(beta, roulette_scale);
             // `beta` is finite here, so `survival` is a number.
             if survival <= 0.0 || rng.next_1d() >= survival {
                 return;
@@ -291,7 +235,7 @@ fn trace_light_path(
 fn connect_to_camera(
     scene: &FlatScene,
     camera: &PinholeProjection,
-    si: &super::SurfaceInteraction,
+    si: &SurfaceInteraction,
     hit: &ClosestHit,
     beta: Vec3,
     rays: &mut u64,

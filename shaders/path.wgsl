@@ -1,130 +1,6 @@
-// Twin of src/cpu/integrator.rs: unidirectional path tracing with next-event estimation,
-// MIS (power heuristic) and Russian roulette, and the megakernel's entry points. Bounce
-// semantics, random-number order and every guard match the CPU reference.
-
-const MAX_BOUNCES_GUARD: u32 = 1024u;
-const RR_MAX_SURVIVAL: f32 = 0.95;
-const RR_ANY_BOUNCE_DEPTH: u32 = 8u;
-
-struct SurfaceInteraction {
-    p: vec3<f32>,
-    p_error: vec3<f32>,
-    n_geometric: vec3<f32>,
-    frame: Frame,
-    wo: vec3<f32>,
-    wo_world: vec3<f32>,
-    front_face: bool,
-    material: u32,
-    emitter: u32,
-    distance: f32,
-    // UV sets 0 (xy) and 1 (zw).
-    uv: vec4<f32>,
-    // Texture level-of-detail bases per UV set (`lod_bases`).
-    lod: vec2<f32>,
-    // The clear coat's normal in the shading frame (+z without a coat).
-    coat_normal: vec3<f32>,
-}
-
-fn surface_interaction(ray: Ray, hit: ClosestHit, cone_width: f32) -> SurfaceInteraction {
-    let tri = triangles[hit.triangle];
-    let b = hit.b;
-    let p = b.x * tri.p0 + b.y * tri.p1 + b.z * tri.p2;
-    let p_error = triangle_error_bound(b, tri.p0, tri.p1, tri.p2);
-    let n_geometric = normalize(cross(tri.p1 - tri.p0, tri.p2 - tri.p0));
-    let wo_world = -ray.direction;
-    let front_face = dot(wo_world, n_geometric) > 0.0;
-    let ng_facing = select(-n_geometric, n_geometric, front_face);
-    let uv = triangle_uv(hit.triangle, b);
-    let lod = lod_bases(hit.triangle, length(cross(tri.p1 - tri.p0, tri.p2 - tri.p0)), cone_width, dot(wo_world, n_geometric));
-    var n_front = n_geometric;
-    if ((tri.flags & TRIANGLE_HAS_NORMALS) != 0u) {
-        let n = normals[hit.triangle];
-        let interpolated = try_normalize(b.x * oct_decode(n.n0) + b.y * oct_decode(n.n1) + b.z * oct_decode(n.n2));
-        if (interpolated.w != 0.0) {
-            n_front = select(interpolated.xyz, -interpolated.xyz, dot(interpolated.xyz, n_geometric) < 0.0);
-        }
-    }
-    let material = materials[tri.material];
-    // The tangent frame (front side) where a normal map will read it.
-    var tangent_frame = Frame(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    var has_tangent_frame = false;
-    if (FEATURE_NORMAL_MAPS && (tri.flags & TRIANGLE_HAS_TANGENTS) != 0u) {
-        let t = tangents[hit.triangle];
-        let tangent = b.x * oct_decode(t.t0) + b.y * oct_decode(t.t1) + b.z * oct_decode(t.t2);
-        let sign = select(1.0, -1.0, (t.signs & 1u) != 0u);
-        let ortho = try_normalize(tangent - n_front * dot(n_front, tangent));
-        if (ortho.w != 0.0) {
-            tangent_frame = Frame(ortho.xyz, cross(n_front, ortho.xyz) * sign, n_front);
-            has_tangent_frame = true;
-        }
-    }
-    var n_mapped = n_front;
-    if (has_tangent_frame) {
-        n_mapped = map_normal(material.normal_texture, material.normal_scale, uv, lod, tangent_frame, n_geometric);
-    }
-    let ns = facing_normal(n_mapped, n_front, front_face, wo_world, ng_facing);
-    let f = frame_from_z(ns);
-    // The clear coat's own normal: its normal map, else the interpolated normal.
-    var coat_normal = vec3<f32>(0.0, 0.0, 1.0);
-    if (FEATURE_CLEARCOAT && material.clearcoat > 0.0) {
-        var n_coat = n_front;
-        if (has_tangent_frame) {
-            n_coat = map_normal(material.clearcoat_normal_texture, material.clearcoat_normal_scale, uv, lod, tangent_frame, n_geometric);
-        }
-        coat_normal = normalize(frame_to_local(f, facing_normal(n_coat, n_front, front_face, wo_world, ng_facing)));
-    }
-    return SurfaceInteraction(p, p_error, n_geometric, f, frame_to_local(f, wo_world), wo_world, front_face, tri.material, tri.emitter, hit.t, uv, lod, coat_normal);
-}
-
-// The normal map `texture` (or INVALID_INDEX: none) applied in `tf` (tangent, bitangent,
-// interpolated normal; glTF 2.0 §3.9.3), kept on the geometric front side; the interpolated
-// normal where there is no map.
-fn map_normal(texture: u32, scale: f32, uv: vec4<f32>, lod: vec2<f32>, tf: Frame, n_geometric: vec3<f32>) -> vec3<f32> {
-    if (texture == INVALID_INDEX) {
-        return tf.z;
-    }
-    let m = texture_lookup_lod(texture, uv, lod, false).xyz * 2.0 - vec3<f32>(1.0);
-    let mapped = try_normalize(tf.x * (m.x * scale) + tf.y * (m.y * scale) + tf.z * m.z);
-    if (mapped.w == 0.0) {
-        return tf.z;
-    }
-    return select(mapped.xyz, tf.z, dot(mapped.xyz, n_geometric) < 0.0);
-}
-
-// Face the ray; fall back to the interpolated, then the geometric normal where the viewer
-// would be below the shading hemisphere (the CPU twin explains the rule).
-fn facing_normal(n: vec3<f32>, n_front: vec3<f32>, front_face: bool, wo_world: vec3<f32>, ng_facing: vec3<f32>) -> vec3<f32> {
-    let s_n = select(-n, n, front_face);
-    let s_front = select(-n_front, n_front, front_face);
-    if (dot(s_n, wo_world) > 0.0) {
-        return s_n;
-    }
-    if (dot(s_front, wo_world) > 0.0) {
-        return s_front;
-    }
-    return ng_facing;
-}
-
-// Twin of `sides_agree`: reflection by the shading frame must be reflection by the
-// geometric normal too (the CPU twin explains the light leak this closes).
-fn sides_agree(si: SurfaceInteraction, wi_world: vec3<f32>, wi_local: vec3<f32>) -> bool {
-    let wo_side = dot(si.wo_world, si.n_geometric);
-    let reflected_geometrically = dot(wi_world, si.n_geometric) * wo_side > 0.0;
-    return reflected_geometrically == (wi_local.z > 0.0);
-}
-
-// A NaN, to poison a sample whose throughput stopped being finite (the film rejects it).
-fn poison() -> vec3<f32> {
-    return vec3<f32>(bitcast<f32>(0x7fc00000u));
-}
-
-// The pixel (x, y) of invocation `gid` within this dispatch's band of rows
-// [row_offset, row_offset + row_count); z = 0 when it lies outside the band or the image.
-fn band_pixel(gid: vec3<u32>) -> vec3<u32> {
-    let y = gid.y + frame.row_offset;
-    let inside = gid.x < frame.width && gid.y < frame.row_count && y < frame.height;
-    return vec3<u32>(gid.x, y, select(0u, 1u, inside));
-}
+// Twin of src/integrator/path.rs: unidirectional path tracing with next-event estimation,
+// MIS (power heuristic) and Russian roulette: the `render` entry point. Bounce semantics,
+// random-number order and every guard match the CPU reference.
 
 // A path between bounces (twin of the CPU's `PathState`).
 struct PathState {
@@ -167,7 +43,7 @@ struct SplitVertex {
 
 // One invocation per pixel of the band: adds `samples` samples, starting at index
 // `sample_offset`, to the pixel's running statistics. The path is the CPU twin's
-// (`radiance` in src/cpu/integrator.rs), bounce for bounce.
+// (`radiance` in src/integrator/path.rs), bounce for bounce.
 //
 // Path regeneration (Novák, Havran & Dachsbacher 2010, "Path regeneration for interactive
 // path tracing"): the outer loop runs bounces, not samples, and an invocation whose path
@@ -267,8 +143,8 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                     if (path.depth == 0u || path.prev_delta || si.emitter == INVALID_INDEX) {
                         // A caustic path the light tracer takes is left out here (the CPU
                         // twin's `trace` explains the partition).
-                        let light_traced = frame.light_traced_caustics != 0u && path.prev_delta
-                            && path.first_vertex_smooth && si.emitter != INVALID_INDEX;
+                        let light_traced = frame.light_traced_caustics != 0u
+                            && caustic_is_light_traced(path.prev_delta, path.first_vertex_smooth, si.emitter);
                         if (!light_traced) {
                             l += path.beta * material.emission;
                         }
@@ -323,7 +199,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                 path.non_delta_depth += 1u;
             }
             if (path.non_delta_depth >= frame.rr_min_depth || path.depth >= RR_ANY_BOUNCE_DEPTH) {
-                let q = min(max_element(path.beta * path.eta_scale), RR_MAX_SURVIVAL);
+                let q = survival_probability(path.beta, path.eta_scale);
                 if (q <= 0.0 || rng_next_1d() >= q) {
                     break;
                 }
@@ -401,25 +277,3 @@ fn next_event(si: SurfaceInteraction, bsdf: GltfBsdf, beta: vec3<f32>) -> vec3<f
     return contribution * w / ls.pdf;
 }
 
-// What the camera ray of sample 0 hits: the first-hit AOV (distance, normal, albedo).
-@compute @workgroup_size(8, 8, 1)
-fn first_hit(@builtin(global_invocation_id) gid: vec3<u32>) {
-    load_dispatch_constants();
-    let px = band_pixel(gid);
-    if (px.z == 0u) {
-        return;
-    }
-    let x = px.x;
-    let y = px.y;
-    // Jittered by the independent sampler on both backends (`cpu::first_hit`).
-    sampler_start(SAMPLER_INDEPENDENT, x, y, 0u, frame.seed);
-    let ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
-    let hit = intersect_closest(ray, 0u);
-    var out = FirstHit(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), INVALID_INDEX);
-    if (hit.triangle != INVALID_INDEX) {
-        let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
-        let si = surface_interaction(ray, hit, cone.x + cone.y * hit.t);
-        out = FirstHit(si.frame.z, si.distance, textured_material(materials[si.material], si.uv, si.lod).base_color, hit.triangle);
-    }
-    first_hits[y * frame.width + x] = out;
-}

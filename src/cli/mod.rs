@@ -1,0 +1,182 @@
+//! The `pathlight` command line: one module per command, each with its argument types; the
+//! work itself is the library's ([`pathlight::session`], [`pathlight::bench`],
+//! [`pathlight::viewer`], [`pathlight::film`]).
+
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+
+use pathlight::integrator::Integrator;
+use pathlight::scene::LoadOptions;
+use pathlight::session::{EnvironmentChoice, SessionOptions};
+
+/// `println!` for the command line's standard output: when the reader has gone away
+/// (`pathlight info | head -3`) the process ends quietly with status 141, as a Unix tool
+/// ended by SIGPIPE does, instead of panicking; never 0, so a `compare` verdict cannot be
+/// misreported.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout(), $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(141);
+            }
+            eprintln!("error: cannot write to standard output: {e}");
+            std::process::exit(2);
+        }
+    }};
+}
+
+pub mod bench;
+pub mod compare;
+pub mod info;
+pub mod render;
+pub mod view;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SamplerChoice {
+    /// Owen-scrambled Sobol points: lower error at the same spp. The EXR's variance
+    /// channels then over-state the error (a conservative z-test); the predicted error
+    /// comes from two independent replicates and stays right.
+    Sobol,
+    /// Independent random numbers: the EXR's variance is exactly the mean's.
+    Independent,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BackendChoice {
+    /// The fastest present: a hardware GPU if there is one; else (only a software Vulkan
+    /// rasteriser such as lavapipe, or no Vulkan at all) the CPU backend, saying why.
+    Auto,
+    /// The WGSL megakernel on a Vulkan device, software rasterisers included.
+    Gpu,
+    /// The CPU reference renderer.
+    Cpu,
+}
+
+/// The scene and render options `render` and `view` share.
+#[derive(clap::Args)]
+pub struct SceneArgs {
+    /// The scene (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Image width (default 512; derived from the camera's aspect ratio if only --height is given).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default 512; derived from the camera's aspect ratio if only --width is given).
+    #[arg(long)]
+    pub height: Option<u32>,
+    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
+    pub backend: BackendChoice,
+    /// GPU: use the first Vulkan adapter whose name contains this (case-insensitive).
+    #[arg(long)]
+    pub device: Option<String>,
+    /// The estimator of the rendering equation (`src/integrator/` lists them).
+    #[arg(long, default_value = "path", value_parser = parse_integrator())]
+    pub integrator: Integrator,
+    /// Random seed; the same seed gives the same image.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Most scattering events per path (default: unlimited; Russian roulette ends paths).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Where the paths' random numbers come from.
+    #[arg(long, value_enum, default_value_t = SamplerChoice::Sobol)]
+    pub sampler: SamplerChoice,
+    // The help names the defaults from the constants that set them, so the two cannot drift.
+    #[arg(long, help = splits_help())]
+    pub splits: Option<u32>,
+    /// Path trace the caustics too. By default both backends leave them (paths from a
+    /// diffuse first hit that reach a light through glass or a mirror) to a light tracer
+    /// where the scene allows it.
+    #[arg(long)]
+    pub no_light_tracing: bool,
+    /// Camera index in the file (default: the first camera, or one framing the scene).
+    #[arg(long)]
+    pub camera: Option<usize>,
+    /// Let the scene's external files (buffers, images) be anywhere, not only inside its
+    /// folder. Only for scenes you trust: see "Untrusted input" in the README.
+    #[arg(long)]
+    pub allow_any_path: bool,
+    /// Environment light: an equirectangular .hdr or .exr map (+Y up, Mitsuba 3's convention).
+    #[arg(long, conflicts_with = "background")]
+    pub env: Option<PathBuf>,
+    /// Scale of the environment map's radiance.
+    #[arg(long, default_value_t = 1.0, requires = "env")]
+    pub env_intensity: f32,
+    /// Rotation of the environment map about +Y, in degrees.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, requires = "env")]
+    pub env_rotation: f32,
+    /// A constant environment of this linear radiance, e.g. 0.5,0.5,0.5.
+    #[arg(long, value_parser = parse_rgb)]
+    pub background: Option<glam::Vec3>,
+}
+
+impl SceneArgs {
+    /// The session these options ask for, aiming at `spp` samples per pixel.
+    pub fn session_options(&self, spp: u32) -> SessionOptions {
+        SessionOptions {
+            scene: self.scene.clone(),
+            load: LoadOptions { allow_any_path: self.allow_any_path },
+            environment: match (&self.env, self.background) {
+                (Some(path), _) => EnvironmentChoice::Map {
+                    path: path.clone(),
+                    intensity: self.env_intensity,
+                    rotation_degrees: self.env_rotation,
+                },
+                (None, Some(rgb)) => EnvironmentChoice::Constant(rgb),
+                (None, None) => EnvironmentChoice::None,
+            },
+            camera: self.camera,
+            width: self.width,
+            height: self.height,
+            spp,
+            seed: self.seed,
+            integrator: self.integrator,
+            max_depth: self.max_depth,
+            splits: self.splits,
+            light_tracing: !self.no_light_tracing,
+            sampler: match self.sampler {
+                SamplerChoice::Sobol => pathlight::sampling::SamplerKind::Sobol,
+                SamplerChoice::Independent => pathlight::sampling::SamplerKind::Independent,
+            },
+            backend: match self.backend {
+                BackendChoice::Auto => pathlight::session::BackendChoice::Auto,
+                BackendChoice::Gpu => pathlight::session::BackendChoice::Gpu,
+                BackendChoice::Cpu => pathlight::session::BackendChoice::Cpu,
+            },
+            device: self.device.clone(),
+        }
+    }
+}
+
+/// `--integrator`'s parser: the names of [`Integrator::ALL`], so that the list cannot drift.
+fn parse_integrator() -> impl clap::builder::TypedValueParser<Value = Integrator> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(Integrator::ALL.map(Integrator::name))
+        .map(|name| Integrator::from_name(&name).expect("one of the possible values"))
+}
+
+/// Parses `R,G,B` (three finite, non-negative numbers).
+fn parse_rgb(s: &str) -> Result<glam::Vec3, String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>().map_err(|e| format!("'{p}': {e}")))
+        .collect::<Result<_, _>>()?;
+    match parts[..] {
+        [r, g, b] if parts.iter().all(|v| v.is_finite() && *v >= 0.0) => Ok(glam::Vec3::new(r, g, b)),
+        _ => Err("expected three non-negative numbers R,G,B".into()),
+    }
+}
+
+/// `--splits`' help, with the backends' defaults read from the constants that set them.
+fn splits_help() -> String {
+    format!(
+        "Continuations per camera sample, split at its first vertex with a non-delta lobe \
+         (trajectory splitting; 1: none). --spp counts camera samples. Default: the backend's, \
+         chosen by measured efficiency ({} on the CPU, {} on a software GPU such as lavapipe, {} on \
+         a hardware GPU)",
+        pathlight::render::CPU_DEFAULT_SPLITS,
+        pathlight::render::SOFTWARE_GPU_DEFAULT_SPLITS,
+        pathlight::render::HARDWARE_GPU_DEFAULT_SPLITS
+    )
+}

@@ -1,0 +1,141 @@
+//! `pathlight render`: a scene to EXR and PNG, with a progress bar, Ctrl-C and the
+//! convergence log; the render itself is [`RenderJob::run`].
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use clap::ValueEnum;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::SceneArgs;
+use pathlight::film::Tonemap;
+use pathlight::session::{JobEvent, RenderJob, Session};
+use pathlight::tev::TevStream;
+use pathlight::Error;
+
+#[derive(clap::Args)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    common: SceneArgs,
+    /// Output image(s): .exr (linear radiance + variance) or .png (sRGB). Repeat for several.
+    #[arg(short, long = "output", required = true)]
+    output: Vec<PathBuf>,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// PNG exposure in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// PNG tone curve.
+    #[arg(long, value_enum, default_value_t = TonemapChoice::Clamp)]
+    tonemap: TonemapChoice,
+    /// A reference image (EXR, same size): log RMSE and relMSE against it at 1, 2, 4, … spp.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Write the convergence log (spp, seconds, RMSE, relMSE, predicted relMSE) to this
+    /// .csv or .json file.
+    #[arg(long)]
+    log: Option<PathBuf>,
+    /// Stop after the pass that passes this many seconds (the image keeps what it has).
+    #[arg(long)]
+    time_limit: Option<f64>,
+    /// Stop once the relMSE predicted from the image's own variance is at most this.
+    #[arg(long)]
+    target_error: Option<f64>,
+    /// Stream progressive updates to the tev HDR viewer at HOST:PORT (default
+    /// 127.0.0.1:14158); a tev that is not running is a warning, not a failed render.
+    #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "HOST:PORT")]
+    tev: Option<String>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum TonemapChoice {
+    Clamp,
+    Aces,
+}
+
+pub fn run(args: RenderArgs) -> Result<(), Error> {
+    let mut job = RenderJob {
+        tonemap: match args.tonemap {
+            TonemapChoice::Clamp => Tonemap::Clamp,
+            TonemapChoice::Aces => Tonemap::Aces,
+        },
+        exposure: args.exposure,
+        log: args.log,
+        time_limit: args.time_limit,
+        target_error: args.target_error,
+        ..RenderJob::new(args.spp, args.output)
+    };
+    job.check()?;
+    let mut session = Session::open(&args.common.session_options(args.spp))?;
+    for w in &session.warnings {
+        eprintln!("warning: {}: {w}", args.common.scene.display());
+    }
+    eprintln!("{}", session.describe());
+    for note in session.backend_note.iter().chain(&session.backend_detail) {
+        eprintln!("{note}");
+    }
+    let (width, height) = (session.settings.width, session.settings.height);
+    if let Some(path) = &args.reference {
+        job.reference = Some(RenderJob::read_reference(path, &session)?);
+    }
+    if let Some(address) = &args.tev {
+        let address = if address.is_empty() { pathlight::tev::DEFAULT_ADDRESS } else { address.as_str() };
+        match TevStream::connect(address, &pathlight::tev::image_name(&args.common.scene), width, height) {
+            Ok(stream) => job.tev = Some(stream),
+            Err(e) => eprintln!("warning: --tev: {e}; rendering without it"),
+        }
+    }
+
+    // Ctrl-C stops after the pass in flight and still writes what was rendered; a second
+    // Ctrl-C exits at once.
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        let _ = ctrlc::set_handler(move || {
+            if stop.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+            eprintln!(
+                "\ninterrupted: finishing the current pass and writing the image (Ctrl-C again to abort)"
+            );
+        });
+    }
+    let bar = ProgressBar::new(args.spp as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} spp  {elapsed_precise} elapsed  ETA {eta_precise}",
+        )
+        .expect("static template"),
+    );
+    let report = job.run(&mut session, &stop, |event| match event {
+        JobEvent::Pass { spp } => bar.set_position(spp as u64),
+        JobEvent::Row { row, against_reference: true } => bar.suspend(|| {
+            eprintln!(
+                "{:>6} spp {:>9.3} s  RMSE {:.5}  relMSE {:.5}  predicted relMSE {:.5}",
+                row.spp,
+                row.seconds,
+                row.rmse.unwrap_or(f64::NAN),
+                row.relmse.unwrap_or(f64::NAN),
+                row.predicted_relmse
+            )
+        }),
+        JobEvent::Row { .. } => {}
+        JobEvent::Warning(w) => bar.suspend(|| eprintln!("warning: {w}")),
+    });
+    bar.finish_and_clear();
+    let report = report?;
+    let stats = report.stats;
+    eprintln!(
+        "{}{} spp at {width}×{height} in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s, {} rejected sample(s), backend {}",
+        if stats.interrupted { "interrupted after " } else { "" },
+        stats.spp,
+        stats.seconds,
+        report.samples as f64 / stats.seconds.max(1e-9) / 1e6,
+        report.rays as f64 / stats.seconds.max(1e-9) / 1e6,
+        report.rejected,
+        session.backend_name()
+    );
+    Ok(())
+}

@@ -1,0 +1,105 @@
+//! The integrators: the estimators of the rendering equation that turn a scene into pixel
+//! values, and what they share.
+//!
+//! | integrator | `--integrator` | CPU half | WGSL twin |
+//! |---|---|---|---|
+//! | unidirectional path tracing with next-event estimation and MIS, its caustics optionally left to a light tracer | `path` | [`path`], [`light_tracing`] | `shaders/path.wgsl`, `shaders/light_tracing.wgsl` |
+//!
+//! What every integrator shares lives beside them, each with a WGSL twin of the same name:
+//! * [`interaction`]: the surface record built at every path vertex and the side test of a
+//!   sampled direction (`shaders/interaction.wgsl`);
+//! * [`mis`]: multiple importance sampling weights (`shaders/mis.wgsl`);
+//! * [`roulette`]: Russian roulette and the bounce limits (`shaders/roulette.wgsl`);
+//! * [`partition`]: which paths the path tracer leaves to the light tracer
+//!   (`shaders/partition.wgsl`).
+//!
+//! A new integrator (bidirectional path tracing, Metropolis, photon mapping, irradiance
+//! caching, …) adds a variant to [`Integrator`], its CPU half as one file here, and its WGSL
+//! twin as one file in `shaders/` with the same name, listed by
+//! `crate::gpu::shader::integrator_files`: the GPU kernel is composed and cached per
+//! integrator as it is specialised per scene feature. Both backends dispatch on
+//! [`crate::RenderSettings::integrator`].
+
+pub mod interaction;
+pub mod light_tracing;
+pub mod mis;
+pub mod partition;
+pub mod path;
+pub mod roulette;
+
+pub use interaction::{first_hit, sides_agree, surface_interaction, SurfaceInteraction};
+pub use light_tracing::{
+    caustic_from_fixed, caustic_to_fixed, trace_caustic_pass, CAUSTIC_FRACTION_BITS, CAUSTIC_MAX_FIXED,
+    LIGHT_PATH_STREAM, LIGHT_RR_MIN_VERTICES,
+};
+pub use mis::power_heuristic;
+pub use partition::{camera_supports_light_tracing, scene_supports_light_tracing, supports_light_tracing};
+pub use path::radiance;
+pub use roulette::{DEFAULT_RR_MIN_DEPTH, MAX_BOUNCES_GUARD, RR_ANY_BOUNCE_DEPTH, RR_MAX_SURVIVAL};
+
+/// Which estimator renders the image (`--integrator`, [`crate::RenderSettings::integrator`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Integrator {
+    /// Unidirectional path tracing with next-event estimation and MIS (Veach 1997, ch. 9),
+    /// its caustics left to a light tracer where the scene allows it
+    /// (`crate::RenderSettings::light_tracing`).
+    #[default]
+    Path,
+}
+
+impl Integrator {
+    /// Every integrator, in the order `--integrator` lists them.
+    pub const ALL: [Integrator; 1] = [Integrator::Path];
+
+    /// The name `--integrator` takes and outputs record.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Path => "path",
+        }
+    }
+
+    /// The integrator called `name`, or an error listing those there are.
+    pub fn from_name(name: &str) -> crate::Result<Integrator> {
+        Self::ALL.into_iter().find(|i| i.name() == name).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|i| i.name()).collect();
+            crate::Error::Settings(format!("unknown integrator '{name}'; there are: {}", names.join(", ")))
+        })
+    }
+}
+
+impl std::fmt::Display for Integrator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What one sample of an integrator needs to know of the render settings, per backend.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IntegratorSettings {
+    /// Most scattering events (`u32::MAX`: unlimited).
+    pub max_depth: u32,
+    /// Russian roulette starts once a path has this many non-delta scattering events
+    /// (mirror and glass bounces do not count; [`roulette`]), or [`RR_ANY_BOUNCE_DEPTH`]
+    /// events of any kind.
+    pub rr_min_depth: u32,
+    /// Continuations per camera sample from its first vertex with a non-delta lobe (1: no
+    /// splitting; [`path::radiance`]).
+    pub splits: u32,
+    /// Leave the caustic paths to the light tracer ([`partition`]): a path whose
+    /// first vertex scattered by a non-delta lobe and which reaches an emissive triangle
+    /// through a delta lobe adds nothing here. Only for scenes the light tracer supports,
+    /// and only with its pass added to every sample (the kernel's twin is
+    /// `frame.light_traced_caustics`).
+    pub caustics_by_light_tracing: bool,
+}
+
+impl Default for IntegratorSettings {
+    fn default() -> Self {
+        IntegratorSettings {
+            max_depth: u32::MAX,
+            rr_min_depth: DEFAULT_RR_MIN_DEPTH,
+            splits: 1,
+            caustics_by_light_tracing: false,
+        }
+    }
+}
