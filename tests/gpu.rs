@@ -409,17 +409,14 @@ fn a_film_too_large_for_the_device_is_a_clear_error() {
     assert!(err.contains("film") && err.contains("does not fit"), "{err}");
 }
 
-/// env-objects.gltf under an HDR map from the shared assets (rotated, scaled), or under
-/// pathlight's default background when the assets are absent (said loudly).
+/// env-objects.gltf under an HDR map from the shared assets (rotated, scaled).
 fn environment_scene() -> pathlight::scene::FlatScene {
     let (mut scene, _) = pathlight::scene::load(&common::scene("env-objects.gltf")).unwrap();
-    if let Some(assets) = common::assets() {
-        let mut env =
-            pathlight::light::EnvironmentDesc::load(&assets.join("env/chinese_garden_1k.hdr")).unwrap();
-        env.intensity = 0.7;
-        env.rotation_degrees = 40.0;
-        scene.environment = Some(env);
-    }
+    let mut env =
+        pathlight::light::EnvironmentDesc::load(&common::assets().join("env/chinese_garden_1k.hdr")).unwrap();
+    env.intensity = 0.7;
+    env.rotation_degrees = 40.0;
+    scene.environment = Some(env);
     pathlight::scene::FlatScene::build(&scene, &pathlight::scene::ViewSettings { camera: None, aspect: 1.0 })
         .unwrap()
 }
@@ -435,11 +432,19 @@ fn env_furnace_gpu_matches_cpu() {
 }
 
 #[test]
+#[cfg_attr(
+    not(feature = "shared-assets"),
+    ignore = "needs ../shared/assets: cargo test --features shared-assets"
+)]
 fn hdr_environment_gpu_matches_cpu() {
     gpu_matches_cpu_scene("env-objects-garden", &environment_scene(), 32, 128);
 }
 
 #[test]
+#[cfg_attr(
+    not(feature = "shared-assets"),
+    ignore = "needs ../shared/assets: cargo test --features shared-assets"
+)]
 fn hdr_environment_same_seed_agrees() {
     same_seed_agrees_scene("env-objects-garden", &environment_scene(), 1e-3);
 }
@@ -534,28 +539,27 @@ fn wrap_mode_scene() -> pathlight::scene::FlatScene {
     flat_scene_from_gltf("wrap-modes.gltf", &doc)
 }
 
-/// Textured scenes: the wrap-mode scene, and the Khronos models (when the assets are there).
-fn textured_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
-    let mut out = vec![("wrap-modes".to_string(), wrap_mode_scene())];
-    if let Some(assets) = common::assets() {
-        for model in [
-            "TextureTransformTest/TextureTransformTest.gltf",
-            "DamagedHelmet/DamagedHelmet.glb",
-            "AlphaBlendModeTest/AlphaBlendModeTest.glb",
-            "ClearCoatTest/ClearCoatTest.glb",
-            // Clearcoat, sheen and transmission together.
-            "ToyCar/ToyCar.gltf",
-        ] {
-            let (mut scene, _) = pathlight::scene::load(&assets.join("khronos").join(model)).unwrap();
-            scene.environment = Some(
-                pathlight::light::EnvironmentDesc::load(&assets.join("env/studio_small_05_1k.hdr")).unwrap(),
-            );
-            let view = pathlight::scene::ViewSettings { camera: None, aspect: 1.0 };
-            out.push((
-                model.split('/').next().unwrap().to_string(),
-                pathlight::scene::FlatScene::build(&scene, &view).unwrap(),
-            ));
-        }
+/// The textured Khronos models, under the studio map.
+fn khronos_textured_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
+    let assets = common::assets();
+    let mut out = Vec::new();
+    for model in [
+        "TextureTransformTest/TextureTransformTest.gltf",
+        "DamagedHelmet/DamagedHelmet.glb",
+        "AlphaBlendModeTest/AlphaBlendModeTest.glb",
+        "ClearCoatTest/ClearCoatTest.glb",
+        // Clearcoat, sheen and transmission together.
+        "ToyCar/ToyCar.gltf",
+    ] {
+        let (mut scene, _) = pathlight::scene::load(&assets.join("khronos").join(model)).unwrap();
+        scene.environment = Some(
+            pathlight::light::EnvironmentDesc::load(&assets.join("env/studio_small_05_1k.hdr")).unwrap(),
+        );
+        let view = pathlight::scene::ViewSettings { camera: None, aspect: 1.0 };
+        out.push((
+            model.split('/').next().unwrap().to_string(),
+            pathlight::scene::FlatScene::build(&scene, &view).unwrap(),
+        ));
     }
     out
 }
@@ -564,9 +568,22 @@ fn textured_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
 /// each camera ray (the first-hit AOV) agrees between them, pixel by pixel.
 #[test]
 fn texture_lookups_agree() {
+    texture_lookups_agree_on(vec![("wrap-modes".to_string(), wrap_mode_scene())]);
+}
+
+#[test]
+#[cfg_attr(
+    not(feature = "shared-assets"),
+    ignore = "needs ../shared/assets: cargo test --features shared-assets"
+)]
+fn khronos_texture_lookups_agree() {
+    texture_lookups_agree_on(khronos_textured_scenes());
+}
+
+fn texture_lookups_agree_on(scenes: Vec<(String, pathlight::scene::FlatScene)>) {
     let Some(ctx) = common::gpu() else { return };
     let size = 64;
-    for (name, scene) in textured_scenes() {
+    for (name, scene) in scenes {
         assert!(scene.features.textures, "{name} is textured");
         let mut gpu = GpuBackend::new(ctx.clone(), &scene, &settings(size, 1, 3)).unwrap();
         let gpu_hits = gpu.first_hits().unwrap();
@@ -599,8 +616,21 @@ fn texture_lookups_agree() {
 }
 
 #[test]
-fn textured_models_gpu_match_cpu() {
-    for (name, scene) in textured_scenes() {
+fn textured_scene_gpu_matches_cpu() {
+    textured_models_gpu_match_cpu_on(vec![("wrap-modes".to_string(), wrap_mode_scene())]);
+}
+
+#[test]
+#[cfg_attr(
+    not(feature = "shared-assets"),
+    ignore = "needs ../shared/assets: cargo test --features shared-assets"
+)]
+fn khronos_textured_models_gpu_match_cpu() {
+    textured_models_gpu_match_cpu_on(khronos_textured_scenes());
+}
+
+fn textured_models_gpu_match_cpu_on(scenes: Vec<(String, pathlight::scene::FlatScene)>) {
+    for (name, scene) in scenes {
         gpu_matches_cpu_scene(&name, &scene, 32, 64);
         // DamagedHelmet's polished metal (GGX α down to 1e-4) once disagreed in 7% of pixels
         // here, by up to 20%: D's textbook denominator cancelled in f32 and the GPU's fused
@@ -618,8 +648,12 @@ fn textured_models_gpu_match_cpu() {
 /// studio environment (one more light). The bundled scenes' lamps are pairs of equal
 /// triangles, whose columns are whole, so there only the first arm runs.
 #[test]
+#[cfg_attr(
+    not(feature = "shared-assets"),
+    ignore = "needs ../shared/assets: cargo test --features shared-assets"
+)]
 fn lights_of_unequal_power_same_seed_agree() {
-    let Some(assets) = common::assets() else { return };
+    let assets = common::assets();
     let model = assets.join("khronos/EmissiveStrengthTest/EmissiveStrengthTest.glb");
     let (mut scene, _) = pathlight::scene::load(&model).unwrap();
     scene.environment =

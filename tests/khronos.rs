@@ -19,8 +19,12 @@ fn check(name: &str, backend: &str, film: &pathlight::film::Film) {
 }
 
 #[test]
+#[cfg_attr(
+    not(feature = "shared-assets"),
+    ignore = "needs ../shared/assets: cargo test --features shared-assets"
+)]
 fn every_khronos_model_renders_on_both_backends() {
-    let Some(assets) = common::assets() else { return };
+    let assets = common::assets();
     let env = pathlight::light::EnvironmentDesc::load(&assets.join("env/studio_small_05_1k.hdr")).unwrap();
     let mut models: Vec<_> = std::fs::read_dir(assets.join("khronos"))
         .unwrap()

@@ -212,8 +212,12 @@ fn far_from_the_origin_renders_the_same_image() {
 }
 
 #[test]
+#[cfg_attr(
+    not(feature = "shared-assets"),
+    ignore = "needs ../shared/assets: cargo test --features shared-assets"
+)]
 fn khronos_sample_assets_load() {
-    let Some(assets) = common::assets() else { return };
+    let assets = common::assets();
     // (file, expected triangle count after instancing and dropping degenerate triangles)
     let expected: &[(&str, Option<usize>)] = &[
         ("khronos/Box/Box.glb", Some(12)),
