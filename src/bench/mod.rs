@@ -79,6 +79,7 @@ impl BenchRow {
 }
 
 pub mod peer;
+pub mod series;
 
 /// A second model placed in a benchmark scene, as [`BenchScene`] composes it.
 #[derive(Clone, Debug)]

@@ -5,7 +5,8 @@
 //! `wo` (towards the viewer) has `wo.z > 0`; `gltf.rs` arranges that by flipping the frame
 //! for back-face hits. Values returned by `eval` exclude the cosine factor.
 //!
-//! WGSL twin: `shaders/bsdf.wgsl` (same function names).
+//! WGSL twins: `shaders/bsdf.wgsl` (the lobes) and `shaders/bsdf_gltf.wgsl` (`gltf.rs`),
+//! with the same function names.
 
 pub mod fresnel;
 mod gltf;

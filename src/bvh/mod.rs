@@ -6,6 +6,7 @@
 
 mod build;
 mod lanes;
+mod sah;
 pub mod trail;
 mod traverse;
 mod wide;

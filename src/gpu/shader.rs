@@ -20,6 +20,7 @@ pub const COMMON_FILES: &[ShaderFile] = &[
     ("sampling.wgsl", include_str!("../../shaders/sampling.wgsl")),
     ("geometry.wgsl", include_str!("../../shaders/geometry.wgsl")),
     ("bsdf.wgsl", include_str!("../../shaders/bsdf.wgsl")),
+    ("bsdf_gltf.wgsl", include_str!("../../shaders/bsdf_gltf.wgsl")),
     ("environment.wgsl", include_str!("../../shaders/environment.wgsl")),
     ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
     ("bvh.wgsl", include_str!("../../shaders/bvh.wgsl")),

@@ -5,6 +5,8 @@ pub mod camera;
 mod features;
 mod flat;
 mod gltf_load;
+mod gltf_material;
+mod gltf_mesh;
 pub mod layout;
 pub mod light;
 pub mod material;

@@ -1,0 +1,302 @@
+//! Generates the bundled scenes in `scenes/` (run: `cargo run --example make_scenes`).
+//!
+//! Each scene is a self-contained `.gltf` with its buffer embedded as a base64 data URI,
+//! written deterministically so regeneration is reviewable as a diff of this program.
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+use serde_json::json;
+
+mod gltf;
+mod hard;
+
+use gltf::*;
+use hard::*;
+
+/// The Cornell box from the measured data published by the Cornell Program of Computer
+/// Graphics (https://www.graphics.cornell.edu/online/box/data.html), converted from
+/// millimetres to metres. The coordinate frame is the data's own: +Y up, the camera at
+/// z = −0.8 looking down +Z, so +X is to the viewer's left (red wall). The light quad sits
+/// 0.5 mm under the ceiling so it does not coincide with it. Reflectances are the usual RGB
+/// fits of the measured spectra (as in the pbrt-v4 and Mitsuba scenes); the light's radiance
+/// (17, 12, 4) likewise.
+///
+/// `with_blocks` keeps the two boxes; scenes that put other objects in the room omit them.
+pub(crate) fn cornell(g: &mut Gltf, with_blocks: bool) {
+    cornell_with_light(g, with_blocks, 1.0);
+}
+
+/// [`cornell`] with the light's sides scaled by `light_scale` about its centre and its
+/// radiance by 1/light_scale², so it emits the same power.
+fn cornell_with_light(g: &mut Gltf, with_blocks: bool, light_scale: f64) {
+    let mm = |p: [f64; 3]| [p[0] / 1000.0, p[1] / 1000.0, p[2] / 1000.0];
+    let inside = mm([278.0, 274.4, 279.6]);
+    let white = g.material(lambert("white", [0.725, 0.71, 0.68]));
+    let red = g.material(lambert("red", [0.63, 0.065, 0.05]));
+    let green = g.material(lambert("green", [0.14, 0.45, 0.091]));
+    let k = 1.0 / (light_scale * light_scale);
+    let light = g.material(emitter("light", [17.0 * k, 12.0 * k, 4.0 * k], 0.78));
+
+    let mut walls = Mesh::default();
+    let quads = [
+        // floor, ceiling, back wall
+        [[552.8, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 559.2], [549.6, 0.0, 559.2]],
+        [[556.0, 548.8, 0.0], [556.0, 548.8, 559.2], [0.0, 548.8, 559.2], [0.0, 548.8, 0.0]],
+        [[549.6, 0.0, 559.2], [0.0, 0.0, 559.2], [0.0, 548.8, 559.2], [556.0, 548.8, 559.2]],
+    ];
+    for q in quads {
+        walls.quad(q.map(mm), inside);
+    }
+    g.mesh("white walls", &walls, white);
+    let mut left = Mesh::default();
+    left.quad(
+        [[552.8, 0.0, 0.0], [549.6, 0.0, 559.2], [556.0, 548.8, 559.2], [556.0, 548.8, 0.0]].map(mm),
+        inside,
+    );
+    g.mesh("red wall", &left, red);
+    let mut right = Mesh::default();
+    right.quad([[0.0, 0.0, 559.2], [0.0, 0.0, 0.0], [0.0, 548.8, 0.0], [0.0, 548.8, 559.2]].map(mm), inside);
+    g.mesh("green wall", &right, green);
+    let mut lamp = Mesh::default();
+    let (cx, cz) = (278.0, 279.5);
+    let lamp_corner = |x: f64, z: f64| [cx + (x - cx) * light_scale, 548.3, cz + (z - cz) * light_scale];
+    lamp.quad(
+        [
+            lamp_corner(343.0, 227.0),
+            lamp_corner(343.0, 332.0),
+            lamp_corner(213.0, 332.0),
+            lamp_corner(213.0, 227.0),
+        ]
+        .map(mm),
+        mm([278.0, 0.0, 279.6]),
+    );
+    g.mesh("light", &lamp, light);
+
+    if with_blocks {
+        let mut blocks = Mesh::default();
+        let short: [[[f64; 3]; 4]; 5] = [
+            [[130.0, 165.0, 65.0], [82.0, 165.0, 225.0], [240.0, 165.0, 272.0], [290.0, 165.0, 114.0]],
+            [[290.0, 0.0, 114.0], [290.0, 165.0, 114.0], [240.0, 165.0, 272.0], [240.0, 0.0, 272.0]],
+            [[130.0, 0.0, 65.0], [130.0, 165.0, 65.0], [290.0, 165.0, 114.0], [290.0, 0.0, 114.0]],
+            [[82.0, 0.0, 225.0], [82.0, 165.0, 225.0], [130.0, 165.0, 65.0], [130.0, 0.0, 65.0]],
+            [[240.0, 0.0, 272.0], [240.0, 165.0, 272.0], [82.0, 165.0, 225.0], [82.0, 0.0, 225.0]],
+        ];
+        let tall: [[[f64; 3]; 4]; 5] = [
+            [[423.0, 330.0, 247.0], [265.0, 330.0, 296.0], [314.0, 330.0, 456.0], [472.0, 330.0, 406.0]],
+            [[423.0, 0.0, 247.0], [423.0, 330.0, 247.0], [472.0, 330.0, 406.0], [472.0, 0.0, 406.0]],
+            [[472.0, 0.0, 406.0], [472.0, 330.0, 406.0], [314.0, 330.0, 456.0], [314.0, 0.0, 456.0]],
+            [[314.0, 0.0, 456.0], [314.0, 330.0, 456.0], [265.0, 330.0, 296.0], [265.0, 0.0, 296.0]],
+            [[265.0, 0.0, 296.0], [265.0, 330.0, 296.0], [423.0, 330.0, 247.0], [423.0, 0.0, 247.0]],
+        ];
+        for (faces, center) in [(short, [185.0, 82.5, 168.5]), (tall, [368.5, 165.0, 351.25])] {
+            for q in faces {
+                // Outward: away from the block's centre.
+                let q = q.map(mm);
+                let c = mm(center);
+                let qc = [0, 1, 2].map(|k| q.iter().map(|p| p[k]).sum::<f64>() / 4.0);
+                let away = [2.0 * qc[0] - c[0], 2.0 * qc[1] - c[1], 2.0 * qc[2] - c[2]];
+                blocks.quad(q, away);
+            }
+        }
+        g.mesh("blocks", &blocks, white);
+    }
+    // 35 mm focal length on a 25 mm film: yfov = 2·atan(12.5 / 35).
+    let yfov = 2.0 * (12.5f64 / 35.0).atan();
+    g.perspective_camera("camera", yfov, [0.278, 0.273, -0.8], rot_y(PI));
+}
+
+fn furnace(path: &Path, albedo: f64) {
+    let mut g = Gltf::default();
+    let mut m = lambert("furnace", [albedo; 3]);
+    m["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    let mat = g.material(m);
+    // Inward-facing, flat-shaded, one-sided emitter: the camera inside sees front faces.
+    let sphere = Mesh::icosphere([0.0; 3], 1.0, 3, true, false);
+    g.mesh("sphere", &sphere, mat);
+    g.perspective_camera("camera", 60f64.to_radians(), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
+    g.write(
+        path,
+        &format!(
+            "Furnace: the camera inside a closed sphere of Lambertian albedo {albedo} whose inside emits radiance 1; every pixel's exact value is 1/(1 - {albedo}) = {}",
+            1.0 / (1.0 - albedo)
+        ),
+    );
+}
+
+fn main() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::create_dir_all(dir.join("hard")).unwrap();
+    sealed_room(&dir.join("hard/sealed-room.gltf"));
+    degenerate(&dir.join("hard/degenerate.gltf"));
+    mirror_box(&dir.join("hard/mirror-box.gltf"));
+    glass_furnace(&dir.join("hard/glass-furnace-smooth.gltf"), 0.0);
+    glass_furnace(&dir.join("hard/glass-furnace-rough.gltf"), 0.5);
+    for which in ["both", "red", "green"] {
+        coplanar(&dir.join(format!("hard/coplanar-{which}.gltf")), which);
+    }
+    terminator(&dir.join("hard/terminator-80.gltf"), 1);
+    terminator(&dir.join("hard/terminator-20480.gltf"), 5);
+    glass_slab(&dir.join("hard/glass-slab-smooth.gltf"), 0.0);
+    glass_slab(&dir.join("hard/glass-slab-rough-1.gltf"), 1.0);
+    for r in ["0.3", "0.6", "1.0"] {
+        glossy_furnace(&dir.join(format!("hard/glossy-furnace-{r}.gltf")), r.parse().unwrap());
+    }
+    index_matched_glass(&dir.join("hard/glass-index-1.gltf"));
+    caustic_mirror(&dir.join("hard/caustic-mirror.gltf"), false);
+    caustic_mirror(&dir.join("hard/caustic-mirror-virtual.gltf"), true);
+    let mut g = Gltf::default();
+    cornell_with_light(&mut g, true, 0.01);
+    g.write(
+        &dir.join("hard/cornell-tiny-light.gltf"),
+        "The Cornell box with its light shrunk to 1e-4 of its area at the same power (radiance x 1e4)",
+    );
+    for (name, root, what) in [
+        ("far-1e6", json!({"translation": [1e6, -1e6, 1e6]}), "translated by 1e6 along each axis"),
+        ("far-1e7", json!({"translation": [1e7, 1e7, -1e7]}), "translated by 1e7 along each axis"),
+        ("tiny-1e-5", json!({"scale": [1e-5, 1e-5, 1e-5]}), "scaled by 1e-5"),
+        ("huge-1e5", json!({"scale": [1e5, 1e5, 1e5]}), "scaled by 1e5"),
+    ] {
+        transformed_cornell(
+            &dir.join(format!("hard/cornell-{name}.gltf")),
+            root,
+            &format!("The Cornell box and its camera {what}: the image equals the untransformed box's"),
+        );
+    }
+
+    let mut g = Gltf::default();
+    cornell(&mut g, true);
+    g.write(
+        &dir.join("cornell-box.gltf"),
+        "The Cornell box (measured geometry), diffuse walls, area light under the ceiling",
+    );
+
+    furnace(&dir.join("furnace-0.5.gltf"), 0.5);
+    furnace(&dir.join("furnace-0.9.gltf"), 0.9);
+
+    // Glossy metal: rough gold and a polished (roughness 0, delta) silver sphere, and a
+    // glossy dielectric (plastic) sphere with its diffuse base, in the Cornell room.
+    let mut g = Gltf::default();
+    cornell(&mut g, false);
+    let gold = g.material(metal("rough gold", [1.0, 0.71, 0.29], 0.35));
+    let silver = g.material(metal("polished silver", [0.95, 0.93, 0.88], 0.0));
+    let blue = g.material(plastic("glossy blue plastic", [0.1, 0.2, 0.6], 0.25));
+    g.mesh("gold sphere", &Mesh::icosphere([0.39, 0.1, 0.35], 0.1, 3, false, true), gold);
+    g.mesh("silver sphere", &Mesh::icosphere([0.17, 0.1, 0.25], 0.1, 3, false, true), silver);
+    g.mesh("plastic sphere", &Mesh::icosphere([0.28, 0.3, 0.42], 0.08, 3, false, true), blue);
+    g.write(
+        &dir.join("glossy-metal.gltf"),
+        "Rough and polished metal and glossy plastic spheres in the Cornell room",
+    );
+
+    // Smooth glass: a refracting solid sphere with Beer–Lambert absorption, and a thin-walled
+    // pane, both perfectly smooth (delta lobes).
+    let mut g = Gltf::default();
+    cornell(&mut g, false);
+    let solid = g.material(glass("smooth glass (solid, tinted)", 0.0, Some(([0.85, 0.95, 1.0], 0.1))));
+    let thin = g.material(glass("smooth glass (thin-walled)", 0.0, None));
+    g.mesh("glass sphere", &Mesh::icosphere([0.3, 0.13, 0.3], 0.13, 3, false, true), solid);
+    let mut pane = Mesh::default();
+    pane.quad([[0.08, 0.0, 0.45], [0.2, 0.0, 0.45], [0.2, 0.3, 0.45], [0.08, 0.3, 0.45]], [0.14, 0.15, -1.0]);
+    g.mesh("glass pane", &pane, thin);
+    g.write(
+        &dir.join("glass-smooth.gltf"),
+        "Smooth glass: a tinted refracting sphere and a thin-walled pane in the Cornell room",
+    );
+
+    // The benchmark's glass scene (issue 8): a perfect mirror sphere and a clear solid
+    // glass sphere in the Cornell room, the classic pair, with materials a peer renderer
+    // models identically (a mirror of reflectance 1; clear glass of index 1.5).
+    let mut g = Gltf::default();
+    cornell(&mut g, false);
+    let mirror = g.material(metal("mirror (reflectance 1)", [1.0, 1.0, 1.0], 0.0));
+    let clear = g.material(json!({"name": "clear glass (solid, index 1.5)",
+        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
+            "KHR_materials_volume": {"thicknessFactor": 0.1}}}));
+    g.mesh("mirror sphere", &Mesh::icosphere([0.39, 0.1, 0.37], 0.1, 4, false, true), mirror);
+    g.mesh("glass sphere", &Mesh::icosphere([0.17, 0.1, 0.2], 0.1, 4, false, true), clear);
+    g.write(
+        &dir.join("cornell-spheres.gltf"),
+        "A mirror sphere and a clear glass sphere in the Cornell room (the speed-against-error benchmark's glass scene)",
+    );
+
+    // Rough glass: the same objects frosted.
+    let mut g = Gltf::default();
+    cornell(&mut g, false);
+    let solid = g.material(glass("rough glass (solid)", 0.3, Some(([0.9, 0.9, 1.0], 0.2))));
+    let thin = g.material(glass("rough glass (thin-walled)", 0.45, None));
+    g.mesh("glass sphere", &Mesh::icosphere([0.3, 0.13, 0.3], 0.13, 3, false, true), solid);
+    let mut pane = Mesh::default();
+    pane.quad([[0.08, 0.0, 0.45], [0.2, 0.0, 0.45], [0.2, 0.3, 0.45], [0.08, 0.3, 0.45]], [0.14, 0.15, -1.0]);
+    g.mesh("glass pane", &pane, thin);
+    g.write(
+        &dir.join("glass-rough.gltf"),
+        "Rough glass: a frosted refracting sphere and a frosted thin pane in the Cornell room",
+    );
+
+    // Punctual lights only: point, spot and directional lights over a floor and wall.
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white", [0.8, 0.8, 0.8]));
+    let red = g.material(plastic("red plastic", [0.7, 0.1, 0.1], 0.3));
+    let steel = g.material(metal("brushed steel", [0.6, 0.6, 0.62], 0.25));
+    let mut room = Mesh::default();
+    room.quad([[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]], [0.0, 1.0, 0.0]);
+    room.quad([[-2.0, 0.0, -1.0], [2.0, 0.0, -1.0], [2.0, 2.0, -1.0], [-2.0, 2.0, -1.0]], [0.0, 1.0, 0.0]);
+    g.mesh("floor and wall", &room, white);
+    g.mesh("red sphere", &Mesh::icosphere([-0.45, 0.35, 0.0], 0.35, 3, false, true), red);
+    g.mesh("steel sphere", &Mesh::icosphere([0.45, 0.3, 0.2], 0.3, 3, false, true), steel);
+    g.light(
+        json!({"type": "point", "color": [1.0, 0.9, 0.8], "intensity": 2.0}),
+        [0.0, 1.4, 0.8],
+        [0.0, 0.0, 0.0, 1.0],
+    );
+    // Spot pointing straight down (−Z rotated to −Y: +90° about X).
+    let h = (PI / 4.0).sin();
+    g.light(
+        json!({"type": "spot", "color": [0.6, 0.8, 1.0], "intensity": 6.0, "spot": {"innerConeAngle": 0.25, "outerConeAngle": 0.5}}),
+        [0.45, 1.8, 0.2],
+        [-h, 0.0, 0.0, h],
+    );
+    // Directional light from the upper left, travelling down and back.
+    g.light(
+        json!({"type": "directional", "color": [1.0, 1.0, 1.0], "intensity": 0.5}),
+        [0.0, 0.0, 0.0],
+        [-0.3, -0.3, 0.0, 0.905_538_5],
+    );
+    g.perspective_camera("camera", 45f64.to_radians(), [0.0, 0.9, 2.6], [-0.12, 0.0, 0.0, 0.992_774_4]);
+    g.write(&dir.join("punctual.gltf"), "Point, spot and directional lights only (no emissive surfaces)");
+
+    // Environment furnace: a closed, convex, white Lambertian sphere and no light of its own.
+    // Under a constant environment of radiance L every point of it sees only sky, so every
+    // pixel, sphere and background alike, is exactly L (with no --env or --background,
+    // pathlight's default background: L = 1).
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white", [1.0, 1.0, 1.0]));
+    g.mesh("sphere", &Mesh::icosphere([0.0; 3], 1.0, 3, false, true), white);
+    g.perspective_camera("camera", 40f64.to_radians(), [0.0, 0.0, 4.0], [0.0, 0.0, 0.0, 1.0]);
+    g.write(
+        &dir.join("env-furnace.gltf"),
+        "Environment furnace: a white Lambertian sphere with no lights; under a constant environment of radiance L every pixel is exactly L",
+    );
+
+    // Objects for environment lighting (no light of their own: render with --env).
+    let mut g = Gltf::default();
+    let grey = g.material(lambert("grey floor", [0.5, 0.5, 0.5]));
+    let gold = g.material(metal("rough gold", [1.0, 0.78, 0.34], 0.3));
+    let chrome = g.material(metal("chrome", [0.95, 0.95, 0.95], 0.0));
+    let clay = g.material(lambert("clay", [0.8, 0.45, 0.3]));
+    let glass = g.material(glass("glass", 0.0, Some(([0.9, 0.95, 1.0], 0.5))));
+    let mut floor = Mesh::default();
+    floor.quad([[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]], [0.0, 1.0, 0.0]);
+    g.mesh("floor", &floor, grey);
+    g.mesh("gold sphere", &Mesh::icosphere([-0.9, 0.4, 0.0], 0.4, 3, false, true), gold);
+    g.mesh("chrome sphere", &Mesh::icosphere([0.0, 0.4, -0.5], 0.4, 3, false, true), chrome);
+    g.mesh("clay sphere", &Mesh::icosphere([0.9, 0.4, 0.0], 0.4, 3, false, true), clay);
+    g.mesh("glass sphere", &Mesh::icosphere([0.0, 0.3, 0.6], 0.3, 3, false, true), glass);
+    g.perspective_camera("camera", 45f64.to_radians(), [0.0, 1.3, 3.4], [-0.17, 0.0, 0.0, 0.985_445_3]);
+    g.write(
+        &dir.join("env-objects.gltf"),
+        "Metal, diffuse and glass spheres on a floor, no lights: render them under an environment (--env)",
+    );
+}
