@@ -6,7 +6,7 @@
 //! next index comes from the loaded value), as a BVH walk does, so the load and the code
 //! the driver wraps around it are what is timed. On lavapipe, storage-buffer loads loop over
 //! the SIMD lanes (Mesa's `emit_load_mem`), uniform loads with varying offsets are an
-//! unrolled gather, and texel fetches go through the sampler's code (bench/RESULTS.md).
+//! unrolled gather, and texel fetches go through the sampler's code (`bench/history/lavapipe.md`).
 //!
 //!   XDG_RUNTIME_DIR=/tmp WGPU_DEBUG=0 cargo run --release --example probe_loads [-- --steps 128 --invocations 32768]
 

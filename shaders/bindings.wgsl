@@ -44,8 +44,7 @@
 // compiles each read of a storage buffer into a loop over its eight SIMD lanes that tests
 // each lane's mask and bounds (Mesa's `emit_load_mem`), and every bounce of `render` reads
 // about twenty of these fields (camera rays, roulette, splitting, light counts); as private
-// values they are read once. Lavapipe's Cornell box renders 5% faster so (bench/RESULTS.md,
-// twenty-fifth session).
+// values they are read once (measured: bench/history/lavapipe.md).
 var<private> camera: Camera;
 var<private> frame: FrameParams;
 

@@ -160,12 +160,11 @@ fn child_step(pre: TraversalPrecomp, t_max: f32, current: u32, node: BvhNode, de
 // (shadow rays). Up to SHORT_STACK_LIMIT deferred children wait in two vec4<u32> registers,
 // the latest in stack_low.x; a deeper deferral pushes the oldest out, and when the registers
 // run dry the traversal descends from the root again along its trail. Lavapipe keeps a
-// private array in memory and writes it lane by lane: the array stack this replaced cost
-// 13% of its render time in writes (bench/RESULTS.md, third session), and its mere presence
-// more (without it the Cornell box renders 1.13× faster). A deferred child is not tested
-// against the nearest hit again when it is taken up: its entry distance held beside it, in
-// a private array or in two more registers, cost lavapipe more than the culling saved
-// (bench/RESULTS.md). The hits found are the same either way.
+// private array in memory and writes it lane by lane, and the array stack this replaced
+// cost it more than its writes. A deferred child is not tested against the nearest hit
+// again when it is taken up: its entry distance held beside it cost lavapipe more than the
+// culling saved. The hits found are the same either way (both measured:
+// bench/history/lavapipe.md).
 //
 // The loop is "while-while" (Aila & Laine 2009, "Understanding the Efficiency of Ray
 // Traversal on GPUs", HPG, §3): an inner loop descends through interior nodes until the ray
@@ -174,9 +173,8 @@ fn child_step(pre: TraversalPrecomp, t_max: f32, current: u32, node: BvhNode, de
 // steps interior nodes together and tests leaves together, instead of paying for both kinds
 // of step at every iteration, as the one-loop "if-if" form did: lavapipe's `if` only masks
 // lanes off, without a branch (Mesa's gallivm, `lp_exec_mask_cond_push`). Each ray visits
-// the same nodes in the same order as before. On lavapipe: the glass scene 5–10% faster,
-// alpha-tested models 1.3–1.6×, the 32-triangle Cornell box 4% slower (bench/RESULTS.md,
-// twenty-third session).
+// the same nodes in the same order as before (what it gained on lavapipe:
+// bench/history/lavapipe.md, "The GPU's traversal in while-while form").
 fn traverse(ray_in: Ray, any_hit: bool, alpha_seed: u32) -> ClosestHit {
     rays_traced += 1u;
     var ray = ray_in;

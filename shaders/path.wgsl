@@ -31,8 +31,8 @@ struct PathState {
 // the vertex again from its hit, with the same operations and so the same bits, instead of
 // keeping the surface and its BSDF (some 70 values) live across the loop: on lavapipe, whose
 // `if` only masks lanes and runs both arms, the copies in and out cost every bounce, and
-// shading the saved hit costs nothing extra, since the bounce shades a hit anyway. Split
-// renders 3–5% faster there (bench/RESULTS.md, twenty-fifth session).
+// shading the saved hit costs nothing extra, since the bounce shades a hit anyway (measured:
+// bench/history/lavapipe.md).
 struct SplitVertex {
     hit: ClosestHit,
     cone_width: f32,

@@ -146,7 +146,8 @@ const TEXTURE_SLOTS: u32 = 10u;
 
 // One loop over the slots, not one inlined lookup per slot: a lookup is two bilinear level
 // samples of four texel fetches each, and ten inlined copies of it made the specialised
-// kernel of every textured scene 2–4× slower on an H100 (register pressure; bench/RESULTS.md).
+// kernel of every textured scene 2–4× slower on an H100 (register pressure;
+// bench/history/gltf-content.md).
 fn textured_material(material: Material, uv: vec4<f32>, lod: vec2<f32>) -> Material {
     var m = material;
     if (!FEATURE_TEXTURES) {

@@ -57,21 +57,19 @@ impl Default for RenderSettings {
 pub const MAX_PIXELS: u64 = 1 << 28;
 
 /// The CPU backend's splitting factor unless told otherwise (`RenderSettings::splits`,
-/// `--splits`). Chosen by efficiency, 1 / (relMSE × seconds) at equal time: 4 gained
-/// 1.1–1.2× on the Cornell boxes, 1.03–1.09× on three other bundled scenes, and 8 lost on
-/// one of them (bench/RESULTS.md, "Splitting at the first vertex").
+/// `--splits`), chosen by efficiency, 1 / (relMSE × seconds) at equal time, on the bundled
+/// scenes (`bench/history/splitting.md`).
 pub const CPU_DEFAULT_SPLITS: u32 = 4;
 
 /// The GPU backend's splitting factor on a software rasteriser (lavapipe) unless told
-/// otherwise. At equal work on the Cornell box, reading its tables from uniform buffers,
-/// 4 continuations take 1.22× less relMSE × seconds than none there, and 8 a further 3%
-/// (bench/RESULTS.md, twenty-fifth session).
+/// otherwise, chosen by efficiency on the Cornell box (`bench/history/lavapipe.md`, "the
+/// scene's small tables in uniform buffers").
 pub const SOFTWARE_GPU_DEFAULT_SPLITS: u32 = 4;
 
 /// The GPU backend's splitting factor on a hardware GPU unless told otherwise: not yet
 /// measured on one. Continuation rays are as incoherent as bounce rays while camera rays
-/// are coherent, which lowered lavapipe's rays per second by a fifth at 4 continuations
-/// (still a gain there); whether a GPU gains is for a session lent one to measure.
+/// are coherent, so a GPU may lose rays per second to them; whether it gains is for a
+/// session lent one to measure.
 pub const HARDWARE_GPU_DEFAULT_SPLITS: u32 = 1;
 
 /// What a render runs on, for the defaults that depend on it.

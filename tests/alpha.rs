@@ -188,7 +188,7 @@ fn alpha_gpu_matches_cpu() {
     let cpu = common::render(&mut CpuBackend::new(&scene, &settings(7)), spp);
     let gpu = common::render(&mut GpuBackend::new(ctx.clone(), &scene, &settings(7)).unwrap(), spp);
     // Same seed: the same stochastic-transparency decisions (same hash, same seeds drawn in
-    // the same order), so the images agree to rounding (1e-3 relative, as in tests/gpu.rs).
+    // the same order), so the images agree to rounding (1e-3 relative, as in tests/gpu/).
     let mut differ = 0;
     for (a, b) in cpu.pixels.iter().zip(&gpu.pixels) {
         let (a, b) = (Vec3::from(a.mean), Vec3::from(b.mean));

@@ -1,5 +1,5 @@
 //! Numerical stability on hard cases (issue 11): scenes under `scenes/hard/` (made by
-//! `examples/make_scenes.rs`), each with a property whose right answer is known, checked on
+//! `examples/make_scenes/`), each with a property whose right answer is known, checked on
 //! both backends.
 
 mod common;

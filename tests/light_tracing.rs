@@ -1,4 +1,4 @@
-//! Caustics by light tracing (`src/cpu/light_tracing.rs`, `shaders/light_tracing.wgsl`): the
+//! Caustics by light tracing (`src/integrator/light_tracing.rs`, `shaders/light_tracing.wgsl`): the
 //! light tracer and the path tracer split path space between them, so with it each backend
 //! must render the same image as without it, and as a scene whose answer is known.
 

@@ -74,7 +74,7 @@ fn split_and_unsplit_renders_agree() {
 /// averages it (var / (mean² + 10⁻²)), must fall below 0.75× with 4 continuations.
 /// Measured 0.58× at this size: the rest is the prefix's (camera jitter across edges and
 /// the lamp, the first light sample), which splitting leaves alone; at 256² the error fell
-/// 3.3× (bench/RESULTS.md).
+/// 3.3× (`bench/history/splitting.md`).
 #[test]
 fn a_split_sample_varies_less() {
     let (size, spp) = (32, 64);

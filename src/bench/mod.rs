@@ -264,7 +264,7 @@ pub fn machine_description() -> String {
 /// The widest vector extension the CPU has and the one this build was compiled for. Both
 /// belong in a results file: a peer that compiles its kernels at run time (Mitsuba 3's
 /// LLVM variants) uses what the CPU has, pathlight what it was built for, and two runs on
-/// hosts that differ here are not one comparison (`bench/RESULTS.md`, third peer run).
+/// hosts that differ here are not one comparison (`bench/history/peers.md`, third run).
 pub fn vector_extensions() -> String {
     #[cfg(target_arch = "x86_64")]
     {

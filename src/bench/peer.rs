@@ -106,9 +106,8 @@ pub struct Reference {
 /// A reference's own relMSE: the floor under every error measured against it. A noise common
 /// to both renderers adds the same term to both series and leaves time to equal error
 /// unchanged in expectation, but near it the series bend off the straight lines the times are
-/// read on, and any series with a floor of its own (a biased peer) bends sooner. The eleventh
-/// and twelfth runs' 4,096-spp Cornell-box reference held 2.9·10⁻⁵, a quarter of the error
-/// compared (bench/RESULTS.md, twenty-first session).
+/// read on, and any series with a floor of its own (a biased peer) bends sooner (a reference
+/// once held a quarter of the error compared: `bench/history/peers.md`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReferenceNoise {
     pub relmse: f64,
@@ -160,9 +159,8 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
     }
     // Its own seed, so the reference is independent of every timed render. Rendered as
     // `pathlight render` renders by default, with the backend's splitting and caustics by
-    // light tracing, each chosen for the least error in the time (light tracing lowered the
-    // glass scene's several-fold, bench/RESULTS.md); until the twenty-first session it was
-    // path-traced and unsplit. Each camera sample then costs more, so one spp of reference
+    // light tracing, each chosen for the least error in the time (light tracing lowers the
+    // glass scene's several-fold, `bench/history/light-tracing.md`). Each camera sample then costs more, so one spp of reference
     // is worth more. Whether the estimators converge to the right image is for the z-test
     // against the peer's to say.
     let hardware_gpu = options.gpu.as_ref().filter(|ctx| ctx.is_hardware());

@@ -167,7 +167,7 @@ fn reference_noise_lines(results: &[PeerResult]) -> String {
 /// series of the form a/t + R read where R is this share of the error, the log–log slope is
 /// −0.9 instead of −1, and a time read between checkpoints 4× apart (Mitsuba's `ldsampler`
 /// series) comes out 2.5% long, between checkpoints 2× apart 0.6%: below the peer runs'
-/// spread from run to run (bench/RESULTS.md).
+/// spread from run to run (`bench/history/peers.md`).
 const REFERENCE_NOISE_WARNING: f64 = 0.1;
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The restart trail's bit arithmetic (Laine 2010, "Restart Trail for Stackless BVH
 //! Traversal", HPG, §3): the twins of `trail_bit`, `trail_through`, `trail_pop` and
 //! `trail_depth` in shaders/bvh.wgsl, which spell the u64 operations out on two 32-bit
-//! words (tests/gpu.rs holds them to these).
+//! words (tests/gpu/kernel_variants.rs holds them to these).
 
 use super::build::MAX_DEPTH;
 

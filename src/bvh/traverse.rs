@@ -16,7 +16,8 @@ use super::wide::{traverse_wide, WideBvh};
 /// Deferred children the traversal keeps (its short stack). Deeper deferrals drop the
 /// oldest; when the stack runs dry the traversal starts over from the root and follows its
 /// trail back. The GPU holds these in two `vec4<u32>` registers: lavapipe writes a private
-/// array lane by lane and its mere presence cost more than its writes (bench/RESULTS.md).
+/// array lane by lane and its mere presence cost more than its writes
+/// (`bench/history/lavapipe.md`, "the traversal stack in registers").
 pub const SHORT_STACK_SIZE: usize = 8;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -122,7 +123,7 @@ fn child_step(
 /// The leaves come in the order a full stack would give, less those a nearer hit culls; a
 /// deferred child is not tested against the nearest hit again when it is taken up (the
 /// kernel keeps no entry distances: a second set of registers for a test that seldom
-/// prunes). So the result does not depend on `stack_limit` (tests/bvh.rs, tests/gpu.rs).
+/// prunes). So the result does not depend on `stack_limit` (tests/bvh.rs, tests/gpu/kernel_variants.rs).
 pub fn traverse_with_short_stack(
     nodes: &[BvhNode],
     stack_limit: usize,

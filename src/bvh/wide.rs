@@ -5,7 +5,7 @@
 //!
 //! Eight rather than four: a ray's walk is a chain of dependent node loads, and with eight
 //! children a node spans three binary levels instead of two, so the chain is shorter for the
-//! same leaves (`bench/RESULTS.md` has the before and after).
+//! same leaves (`bench/history/throughput.md`, "The CPU BVH 8-wide", has the before and after).
 //!
 //! The GPU keeps the binary [`BvhNode`] array (one lane per ray gains nothing from wide
 //! nodes there); both trees have the same leaves over the same triangle order, so both

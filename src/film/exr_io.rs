@@ -6,7 +6,7 @@
 //! `pathlight.predictedRelMSE`, the relMSE the image's own error predicts
 //! ([`Film::predicted_relmse`]). Under QMC that figure comes from the sampler's two
 //! independent replicates, which the variance channels cannot hold: their sample variance
-//! over-states the error (2× for a 4,096-spp Cornell box, bench/RESULTS.md), so a file read
+//! over-states the error (2× for a 4,096-spp Cornell box, `bench/history/sampling.md`), so a file read
 //! back without the attribute can only give an upper bound.
 
 use std::collections::HashMap;

@@ -22,11 +22,11 @@ const TARGET_SUBMIT_SECONDS: f64 = 0.1;
 const MAX_IN_FLIGHT: usize = 2;
 /// The most samples per pixel a band of rows gets in one submit on a device too slow for
 /// the whole image: several, so that the kernel's path regeneration (`render` in
-/// shaders/integrator.wgsl) has a next sample to start where a lane's path ends early.
+/// shaders/path.wgsl) has a next sample to start where a lane's path ends early.
 const BAND_SAMPLES: u32 = 8;
 /// Waiting longer than this for one submit means the GPU hung; report it rather than hang.
 const SUBMIT_TIMEOUT: Duration = Duration::from_secs(120);
-/// Compute workgroup edge (shaders/integrator.wgsl `@workgroup_size(8, 8, 1)`).
+/// Compute workgroup edge (shaders/path.wgsl `@workgroup_size(8, 8, 1)`).
 const WORKGROUP: u32 = 8;
 
 pub struct GpuBackend {

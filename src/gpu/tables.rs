@@ -8,8 +8,8 @@
 //! with a branch per lane that mispredicts as often as the lanes' activity changes), and a
 //! uniform-buffer read into a branch-free gather (`emit_load_ubo`'s `build_gather`). The BVH
 //! walk is nearly all such reads, so on lavapipe a scene whose tables fit reads them from
-//! uniform buffers: the Cornell box renders 1.65× faster with its nodes and triangles there
-//! and 1.78× with its materials and lights too (bench/RESULTS.md, twenty-fifth session). On
+//! uniform buffers, which made the Cornell box render 1.78× faster there
+//! (`bench/history/lavapipe.md`, "the scene's small tables in uniform buffers"). On
 //! a hardware GPU nothing changes: divergent reads of a uniform buffer serialise in the
 //! constant cache of NVIDIA's and AMD's GPUs, and storage buffers are their fast path.
 //!

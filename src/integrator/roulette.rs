@@ -26,7 +26,8 @@ pub const RR_MAX_SURVIVAL: f32 = 0.95;
 /// (`IntegratorSettings::rr_min_depth` counts only those that did): a path between parallel
 /// mirrors would otherwise never meet it. Long enough for the delta chains of glass objects,
 /// short enough that a box of mirrors does not trace needlessly long paths (the depths
-/// measured: `bench/history/roulette.md`, "Roulette at any bounce").
+/// measured: `bench/history/roulette.md`, "Russian roulette counts only non-delta
+/// bounces").
 pub const RR_ANY_BOUNCE_DEPTH: u32 = 8;
 
 /// Roulette's default start: after a path's fifth non-delta bounce (Mitsuba 3's default

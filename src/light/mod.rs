@@ -70,8 +70,8 @@ const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 /// its sample so). Drawing the point's first coordinate and the choice from one 2-D point
 /// keeps that point stratified across the lights it lands on: the Cornell box's lamp is two
 /// triangles, and choosing between them by a number of its own had left each triangle's
-/// points only partly stratified (its relMSE 6–7% lower, bench/RESULTS.md, twenty-third
-/// session). WGSL twin: `choose_light_reusing` in shaders/light.wgsl.
+/// points only partly stratified (`bench/history/sampling.md`, "One 2-D point chooses the
+/// light"). WGSL twin: `choose_light_reusing` in shaders/light.wgsl.
 pub fn choose_light_reusing(lights: &[Light], u: f32) -> (usize, f32) {
     let n = lights.len();
     let x = u * n as f32;

@@ -18,9 +18,9 @@
 //! 2020 §5 pads 4-D Sobol points the same way). The radiance a direction finds depends on
 //! the next bounce's direction, not only on its own (the Cornell box's indirect light), and
 //! padding leaves that product unstratified: pairing them lowers the Cornell box's relMSE
-//! by 5.7% at 256 spp, for 2–3% more time (bench/RESULTS.md). Light samples are not
-//! paired: their term adds to the path's rather than multiplying it, which padding already
-//! serves (pairing a direction with the next light sample gained 0.7%).
+//! by 5.7% at 256 spp (`bench/history/sampling.md`, "Direction pairs"). Light samples are
+//! not paired: their term adds to the path's rather than multiplying it, which padding
+//! already serves.
 //!
 //! Owen scrambling keeps the estimator unbiased but makes the samples of a pixel dependent,
 //! so their sample variance no longer measures the mean's error (it over-states it where the
