@@ -47,3 +47,12 @@ fi
 cargo fmt --check
 cargo clippy --release --all-targets "${features[@]}" -- -D warnings
 cargo test --release "${features[@]}"
+
+# The farm driver (farm/pathlight_farm.py) on a local Dask cluster, a worker killed
+# mid-shard. It needs Python 3 with dask.distributed, installed here when missing.
+if ! python3 -c "import distributed" 2>/dev/null; then
+    echo "ci/test.sh: installing dask.distributed for the farm test"
+    python3 -m pip install -q "distributed==2024.12.1"
+fi
+cargo build --release --bin pathlight
+python3 farm/test_farm.py

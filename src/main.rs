@@ -31,6 +31,8 @@ enum Command {
     Bench(cli::bench::BenchArgs),
     /// Compare two images, noise-aware: exit 0 if they match, 1 if they differ, 2 on bad input.
     Compare(cli::compare::CompareArgs),
+    /// Merge the parts of one render (`render --shard I/N` or `--samples A..B`) exactly.
+    Merge(cli::merge::MergeArgs),
 }
 
 fn main() -> ExitCode {
@@ -47,6 +49,7 @@ fn main() -> ExitCode {
         Command::View(args) => cli::view::run(args),
         Command::Info => cli::info::run(),
         Command::Bench(args) => cli::bench::run(args),
+        Command::Merge(args) => cli::merge::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

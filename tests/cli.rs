@@ -280,3 +280,64 @@ fn peer_bench_without_the_peer_is_a_clear_error() {
     assert!(series.starts_with("spp,seconds,relmse\n1,"), "{series}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn shards_render_and_merge_from_the_command_line() {
+    let dir = temp_dir("shards");
+    let scene = common::scene("cornell-box.gltf");
+    let render = |extra: &[&str], out: &std::path::Path| {
+        let mut c = pathlight();
+        c.args([
+            "render",
+            scene.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--spp",
+            "6",
+            "--width",
+            "24",
+            "--height",
+            "16",
+        ]);
+        c.args(extra).arg("-o").arg(out);
+        c.output().unwrap()
+    };
+    let parts: Vec<_> = (0..3).map(|i| dir.join(format!("part{i}.exr"))).collect();
+    for (i, p) in parts.iter().enumerate() {
+        let o = render(&["--shard", &format!("{i}/3")], p);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(String::from_utf8_lossy(&o.stderr).contains(&format!(
+            "rendering samples {}..{} of 6",
+            2 * i,
+            2 * i + 2
+        )));
+    }
+    let merged = dir.join("merged.exr");
+    let o = pathlight().arg("merge").args(&parts).arg("-o").arg(&merged).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("merged 3 part(s): samples 0..6 of the render's 6"));
+    // Bad shards and ranges are refused before any work, naming what is wrong.
+    for (args, message) in [
+        (&["--shard", "3/3"][..], "I must be below N"),
+        (&["--shard", "1/0"][..], "I must be below N"),
+        (&["--shard", "0/7"][..], "leave part 0 none"),
+        (&["--samples", "4..2"][..], "START must be below END"),
+        (&["--samples", "0..9"][..], "A < B ≤ --spp (6)"),
+        (&["--samples", "0..3", "--time-limit", "5"][..], "renders its whole range"),
+    ] {
+        let o = render(args, &dir.join("bad.exr"));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(message), "{args:?}: {err}");
+    }
+    // A gap: parts 0 and 2 only.
+    let o = pathlight()
+        .arg("merge")
+        .arg(&parts[0])
+        .arg(&parts[2])
+        .arg("-o")
+        .arg(dir.join("gap.exr"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("samples 2..4 are missing"), "{err}");
+}

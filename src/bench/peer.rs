@@ -189,7 +189,10 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
         sampler: settings.sampler,
         splits: settings.splits,
         render_seconds: seconds,
-        rejected_samples: 0,
+        samples: 0..settings.spp,
+        total_spp: settings.spp,
+        light_tracing: settings.light_tracing,
+        ..RenderMetadata::default()
     };
     crate::film::write_exr(&film, &meta, &path)?;
     let image = LinearImage::from_film(&film);

@@ -30,6 +30,7 @@ macro_rules! out {
 pub mod bench;
 pub mod compare;
 pub mod info;
+pub mod merge;
 pub mod render;
 pub mod view;
 
@@ -130,6 +131,7 @@ impl SceneArgs {
             width: self.width,
             height: self.height,
             spp,
+            samples: None,
             seed: self.seed,
             integrator: self.integrator,
             max_depth: self.max_depth,

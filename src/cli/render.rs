@@ -24,6 +24,14 @@ pub struct RenderArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = 64)]
     spp: u32,
+    /// Render only the sample indices START..END of the --spp (a part of the render, merged
+    /// with the others by `pathlight merge`); the EXR then holds the film's whole state.
+    #[arg(long, value_name = "START..END", value_parser = parse_samples, conflicts_with = "shard")]
+    samples: Option<std::ops::Range<u32>>,
+    /// Render part I of N (I from 0, as a Kubernetes completion index or a Slurm array task
+    /// id): the sample indices ⌊I·spp/N⌋..⌊(I+1)·spp/N⌋, as --samples.
+    #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+    shard: Option<(u32, u32)>,
     /// PNG exposure in stops.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
@@ -55,6 +63,39 @@ enum TonemapChoice {
     Aces,
 }
 
+/// Parses `START..END`.
+fn parse_samples(s: &str) -> Result<std::ops::Range<u32>, String> {
+    let (a, b) = s.split_once("..").ok_or("expected START..END, e.g. 0..64")?;
+    let (a, b) = (
+        a.trim().parse::<u32>().map_err(|e| format!("'{a}': {e}"))?,
+        b.trim().parse::<u32>().map_err(|e| format!("'{b}': {e}"))?,
+    );
+    if a >= b {
+        return Err(format!("{a}..{b} is empty: START must be below END"));
+    }
+    Ok(a..b)
+}
+
+/// Parses `I/N` with I < N.
+fn parse_shard(s: &str) -> Result<(u32, u32), String> {
+    let (i, n) = s.split_once('/').ok_or("expected I/N, e.g. 0/4")?;
+    let (i, n) = (
+        i.trim().parse::<u32>().map_err(|e| format!("'{i}': {e}"))?,
+        n.trim().parse::<u32>().map_err(|e| format!("'{n}': {e}"))?,
+    );
+    if n == 0 || i >= n {
+        return Err(format!("{i}/{n}: I must be below N (parts are numbered from 0)"));
+    }
+    Ok((i, n))
+}
+
+/// Part `i` of `n` of `spp` samples: ⌊i·spp/n⌋..⌊(i+1)·spp/n⌋ (empty when n > spp and the
+/// part gets no sample).
+pub fn shard_samples(i: u32, n: u32, spp: u32) -> std::ops::Range<u32> {
+    let at = |k: u32| (k as u64 * spp as u64 / n as u64) as u32;
+    at(i)..at(i + 1)
+}
+
 pub fn run(args: RenderArgs) -> Result<(), Error> {
     let mut job = RenderJob {
         tonemap: match args.tonemap {
@@ -67,8 +108,32 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
         target_error: args.target_error,
         ..RenderJob::new(args.spp, args.output)
     };
+    // A part renders up to its range's end (`RenderJob::spp` is the last sample index).
     job.check()?;
-    let mut session = Session::open(&args.common.session_options(args.spp))?;
+    let samples = match (args.samples.clone(), args.shard) {
+        (Some(range), _) => Some(range),
+        (None, Some((i, n))) => {
+            let range = shard_samples(i, n, args.spp);
+            if range.is_empty() {
+                return Err(Error::Settings(format!(
+                    "--shard {i}/{n}: {n} parts of {} samples leave part {i} none; use at most {} parts",
+                    args.spp, args.spp
+                )));
+            }
+            Some(range)
+        }
+        (None, None) => None,
+    };
+    if samples.is_some() && (job.time_limit.is_some() || job.target_error.is_some()) {
+        return Err(Error::Settings(
+            "--time-limit and --target-error would stop a part early and leave a gap in the render; \
+             a part (--samples, --shard) renders its whole range"
+                .into(),
+        ));
+    }
+    let mut options = args.common.session_options(args.spp);
+    options.samples = samples;
+    let mut session = Session::open(&options)?;
     for w in &session.warnings {
         eprintln!("warning: {}: {w}", args.common.scene.display());
     }
@@ -77,6 +142,10 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
         eprintln!("{note}");
     }
     let (width, height) = (session.settings.width, session.settings.height);
+    if let Some(range) = &options.samples {
+        job.spp = range.end;
+        eprintln!("rendering samples {}..{} of {}", range.start, range.end, args.spp);
+    }
     if let Some(path) = &args.reference {
         job.reference = Some(RenderJob::read_reference(path, &session)?);
     }
@@ -102,7 +171,8 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
             );
         });
     }
-    let bar = ProgressBar::new(args.spp as u64);
+    let bar = ProgressBar::new(job.spp as u64);
+    bar.set_position(session.first_sample() as u64);
     bar.set_style(
         ProgressStyle::with_template(
             "{bar:40} {pos}/{len} spp  {elapsed_precise} elapsed  ETA {eta_precise}",
@@ -127,6 +197,7 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
     bar.finish_and_clear();
     let report = report?;
     let stats = report.stats;
+    let stats = pathlight::RenderStats { spp: stats.spp - session.first_sample(), ..stats };
     eprintln!(
         "{}{} spp at {width}×{height} in {:.2} s: {:.3} Msamples/s, {:.2} Mrays/s, {} rejected sample(s), backend {}",
         if stats.interrupted { "interrupted after " } else { "" },

@@ -41,6 +41,19 @@ pub struct RenderMetadata {
     pub render_seconds: f64,
     /// Non-finite samples dropped.
     pub rejected_samples: u64,
+    /// The sample indices in the image (`0..spp` unless it is a shard or a merge of some).
+    pub samples: std::ops::Range<u32>,
+    /// The samples per pixel of the whole render these samples belong to (`--spp`).
+    pub total_spp: u32,
+    /// Was light tracing of the caustics asked for (`RenderSettings::light_tracing`)?
+    pub light_tracing: bool,
+    /// Rays traced (camera, bounce and shadow rays).
+    pub rays: u64,
+    /// `crate::session::scene_digest` of the scene rendered.
+    pub scene_digest: u64,
+    /// Write the film's whole per-pixel state too (`super::state`), so that the image can be
+    /// merged with others of the same render (shards and merges).
+    pub film_state: bool,
 }
 
 pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> {
@@ -48,14 +61,18 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
     let mean = film.mean();
     let var = film.variance_of_mean();
     let channel = |name: &str, data: Vec<f32>| AnyChannel::new(name, FlatSamples::F32(data));
-    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+    let mut list = vec![
         channel("R", mean.iter().map(|c| c.x).collect()),
         channel("G", mean.iter().map(|c| c.y).collect()),
         channel("B", mean.iter().map(|c| c.z).collect()),
         channel("variance.R", var.iter().map(|c| c.x).collect()),
         channel("variance.G", var.iter().map(|c| c.y).collect()),
         channel("variance.B", var.iter().map(|c| c.z).collect()),
-    ]));
+    ];
+    if meta.film_state {
+        list.extend(super::state::state_channels(film));
+    }
+    let channels = AnyChannels::sort(SmallVec::from_vec(list));
     let mut attributes = LayerAttributes {
         software_name: Some(Text::from(concat!("pathlight ", env!("CARGO_PKG_VERSION")))),
         ..LayerAttributes::default()
@@ -81,6 +98,12 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
     put("pathlight.sampler", AttributeValue::Text(Text::from(meta.sampler.name())));
     put("pathlight.splits", AttributeValue::Text(Text::from(meta.splits.to_string().as_str())));
     put("pathlight.scene", AttributeValue::Text(Text::from(meta.scene.as_str())));
+    let text = |v: String| AttributeValue::Text(Text::from(v.as_str()));
+    put("pathlight.samples", text(format!("{}..{}", meta.samples.start, meta.samples.end)));
+    put("pathlight.totalSpp", text(meta.total_spp.to_string()));
+    put("pathlight.lightTracing", text(if meta.light_tracing { "on" } else { "off" }.to_string()));
+    put("pathlight.rays", text(meta.rays.to_string()));
+    put("pathlight.sceneDigest", text(format!("{:016x}", meta.scene_digest)));
     if let Some(relmse) = film.predicted_relmse() {
         put(PREDICTED_RELMSE_ATTRIBUTE, AttributeValue::F64(relmse));
     }

@@ -8,7 +8,9 @@ mod convergence;
 mod diff_image;
 mod exr_io;
 mod image;
+pub mod merge;
 mod png_io;
+pub mod state;
 mod tonemap;
 
 use glam::Vec3;
@@ -18,7 +20,9 @@ pub use convergence::{convergence_csv, convergence_json, error_against, predicte
 pub use diff_image::{write_diff_png, write_zmap_exr};
 pub use exr_io::{read_exr, write_exr, ExrImage, RenderMetadata, PREDICTED_RELMSE_ATTRIBUTE};
 pub use image::LinearImage;
+pub use merge::{merge_files, merge_parts, MergeReport};
 pub use png_io::write_png;
+pub use state::{read_film_file, FilmFile};
 pub use tonemap::{linear_to_srgb, Tonemap};
 
 use crate::scene::layout::FilmPixel;

@@ -72,6 +72,11 @@ pub struct SessionOptions {
     pub height: Option<u32>,
     /// Samples per pixel the session aims for (it also sizes the texture filter's cone).
     pub spp: u32,
+    /// Render only these sample indices of the `spp` (a shard of the render, `--samples`,
+    /// `--shard`); `None`: all of them. The shards of one render together are its samples:
+    /// every sample's numbers depend only on (pixel, sample index, seed), and the cone stays
+    /// the whole render's.
+    pub samples: Option<std::ops::Range<u32>>,
     pub seed: u32,
     /// The estimator (`--integrator`).
     pub integrator: Integrator,
@@ -100,6 +105,7 @@ impl SessionOptions {
             width: None,
             height: None,
             spp: 64,
+            samples: None,
             seed: 0,
             integrator: Integrator::default(),
             max_depth: None,
@@ -130,8 +136,16 @@ pub struct Session {
     /// The GPU backend's film buffer (the trait object cannot be downcast to reach it).
     gpu_film: Option<wgpu::Buffer>,
     camera: Camera,
+    /// The first sample index this session renders (0 unless it renders a shard).
+    first_sample: u32,
+    /// Does it render a shard (`SessionOptions::samples`)? Its EXR then carries the film's
+    /// whole state, for `pathlight merge`.
+    shard: bool,
+    /// The next sample index to render: samples `first_sample .. spp_done` are in the film.
     spp_done: u32,
     seconds: f64,
+    /// A digest of the flattened scene (`scene_digest`), which `merge` compares.
+    scene_digest: u64,
 }
 
 /// A backend, its film on the device (GPU only), and what opening it cost (GPU only).
@@ -215,6 +229,13 @@ impl Session {
             ..RenderSettings::default()
         };
         settings.validate()?;
+        let samples = options.samples.clone().unwrap_or(0..options.spp);
+        if samples.start >= samples.end || samples.end > options.spp {
+            return Err(Error::Settings(format!(
+                "--samples {}..{}: a range of sample indices A..B with A < B ≤ --spp ({})",
+                samples.start, samples.end, options.spp
+            )));
+        }
         let view = ViewSettings { camera: options.camera, aspect: width as f64 / height as f64 };
         let flat = Arc::new(FlatScene::build(&scene, &view)?);
         warnings.extend(flat.warnings());
@@ -256,6 +277,7 @@ impl Session {
         settings.splits = options.splits.unwrap_or(crate::render::default_splits(device));
         settings.light_tracing = options.light_tracing;
         let (backend, gpu_film, backend_detail) = make_backend(&flat, &settings, gpu.as_ref())?;
+        let scene_digest = scene_digest(&flat);
         Ok(Session {
             backend_detail,
             source: options.scene.clone(),
@@ -268,8 +290,11 @@ impl Session {
             backend,
             gpu,
             gpu_film,
-            spp_done: 0,
+            first_sample: samples.start,
+            shard: options.samples.is_some(),
+            spp_done: samples.start,
             seconds: 0.0,
+            scene_digest,
         })
     }
 
@@ -285,6 +310,7 @@ impl Session {
         Session {
             source,
             scene,
+            scene_digest: scene_digest(&flat),
             camera: flat.camera,
             flat,
             settings,
@@ -294,6 +320,8 @@ impl Session {
             backend,
             gpu: None,
             gpu_film: None,
+            first_sample: 0,
+            shard: false,
             spp_done: 0,
             seconds: 0.0,
         }
@@ -348,9 +376,15 @@ impl Session {
         self.set_camera(&camera)
     }
 
-    /// Samples per pixel completed (every pixel).
+    /// The next sample index to render: every pixel holds samples
+    /// [`Session::first_sample`]` .. spp()` (all of `0 .. spp()` unless a shard).
     pub fn spp(&self) -> u32 {
         self.spp_done
+    }
+
+    /// The first sample index this session renders (0 unless it renders a shard).
+    pub fn first_sample(&self) -> u32 {
+        self.first_sample
     }
 
     /// Seconds spent rendering so far.
@@ -408,7 +442,7 @@ impl Session {
     /// Forgets every sample (the camera or the scene changed).
     pub fn restart(&mut self) -> Result<()> {
         self.backend.reset()?;
-        self.spp_done = 0;
+        self.spp_done = self.first_sample;
         self.seconds = 0.0;
         Ok(())
     }
@@ -426,7 +460,13 @@ impl Session {
         Ok(RenderMetadata {
             scene: self.source.display().to_string(),
             backend: self.backend.name(),
-            spp: self.spp_done,
+            spp: self.spp_done - self.first_sample,
+            samples: self.first_sample..self.spp_done,
+            total_spp: self.settings.spp,
+            light_tracing: self.settings.light_tracing,
+            rays: self.backend.rays_traced()?,
+            scene_digest: self.scene_digest,
+            film_state: self.shard,
             seed: self.settings.seed,
             integrator: self.settings.integrator,
             max_depth: self.settings.max_depth,
@@ -461,4 +501,26 @@ pub fn write_output(
     } else {
         write_png(film, path, tonemap, exposure)
     }
+}
+
+/// A digest of what a render of `flat` depends on (its triangles, normals, texture
+/// coordinates, materials, lights, environment and camera): 64-bit FNV-1a over their bytes.
+/// `pathlight merge` refuses parts whose digests differ, so shards of different scenes (or of
+/// the same file seen through another camera or environment) are never merged.
+pub fn scene_digest(flat: &FlatScene) -> u64 {
+    let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes {
+            hash = (hash ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    eat(bytemuck::cast_slice(&flat.triangles));
+    eat(bytemuck::cast_slice(&flat.normals));
+    eat(bytemuck::cast_slice(&flat.texcoords));
+    eat(bytemuck::cast_slice(&flat.materials));
+    eat(bytemuck::cast_slice(&flat.lights));
+    eat(bytemuck::bytes_of(&flat.environment.params));
+    eat(bytemuck::cast_slice(&flat.environment.texels));
+    eat(bytemuck::bytes_of(&flat.camera));
+    hash
 }

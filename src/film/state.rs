@@ -1,0 +1,168 @@
+//! A film's whole per-pixel state in an EXR, so that images of parts of one render (shards:
+//! `render --samples A..B`, `--shard I/N`) can be read back and merged exactly
+//! (`super::merge`).
+//!
+//! Besides the mean (`R`, `G`, `B`) and its variance, such a file holds each pixel's
+//! accumulator as the renderer kept it ([`FilmPixel`]): `film.count`, `film.rejected` and
+//! `film.oddCount` as 32-bit integers, `film.m2.R/G/B` (Σ (x − mean)²) and
+//! `film.oddMean.R/G/B` (the mean of replicate 1, the odd sample indices) as f32. The
+//! variance channels alone would not do: they are M2 / ((n − 1) n) rounded to f32, from
+//! which M2 comes back only approximately, and they say nothing of the replicates that the
+//! predicted error is measured from.
+
+use std::path::{Path, PathBuf};
+
+use exr::prelude::*;
+
+use super::{Film, RenderMetadata};
+use crate::error::{Error, Result};
+use crate::integrator::Integrator;
+use crate::sampling::SamplerKind;
+use crate::scene::layout::FilmPixel;
+
+/// The state channels of `film`, beside the mean and variance [`super::write_exr`] writes.
+pub(super) fn state_channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
+    let f32s = |name: &str, f: &dyn Fn(&FilmPixel) -> f32| {
+        AnyChannel::new(name, FlatSamples::F32(film.pixels.iter().map(f).collect()))
+    };
+    let u32s = |name: &str, f: &dyn Fn(&FilmPixel) -> u32| {
+        AnyChannel::new(name, FlatSamples::U32(film.pixels.iter().map(f).collect()))
+    };
+    vec![
+        u32s("film.count", &|p| p.count),
+        u32s("film.rejected", &|p| p.rejected),
+        u32s("film.oddCount", &|p| p.odd_count),
+        f32s("film.m2.R", &|p| p.m2[0]),
+        f32s("film.m2.G", &|p| p.m2[1]),
+        f32s("film.m2.B", &|p| p.m2[2]),
+        f32s("film.oddMean.R", &|p| p.odd_mean[0]),
+        f32s("film.oddMean.G", &|p| p.odd_mean[1]),
+        f32s("film.oddMean.B", &|p| p.odd_mean[2]),
+    ]
+}
+
+/// An image with its film's state, read back.
+#[derive(Clone, Debug)]
+pub struct FilmFile {
+    pub path: PathBuf,
+    pub film: Film,
+    pub meta: RenderMetadata,
+}
+
+/// Reads an EXR that [`super::write_exr`] wrote with `film_state` (a shard, or a merge),
+/// with a message naming the file and what is missing or malformed.
+pub fn read_film_file(path: &Path) -> Result<FilmFile> {
+    let bad = |message: String| Error::image(path, message);
+    let image = std::panic::catch_unwind(|| {
+        read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_file(path)
+    })
+    .map_err(|_| bad("the EXR decoder failed on malformed data".into()))?
+    .map_err(|e| bad(format!("cannot read EXR: {e}")))?;
+    let layer = &image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let find = |name: &str| layer.channel_data.list.iter().find(|c| c.name.to_string() == name);
+    let floats = |name: &str| -> Result<Vec<f32>> {
+        match find(name).map(|c| &c.sample_data) {
+            Some(FlatSamples::F32(v)) => Ok(v.clone()),
+            Some(_) => Err(bad(format!("channel {name} is not 32-bit float"))),
+            None => Err(bad(format!(
+                "no channel {name}: not a pathlight image with its film's state (render the parts \
+                 with --shard or --samples, or merge files that `pathlight merge` wrote)"
+            ))),
+        }
+    };
+    let integers = |name: &str| -> Result<Vec<u32>> {
+        match find(name).map(|c| &c.sample_data) {
+            Some(FlatSamples::U32(v)) => Ok(v.clone()),
+            Some(_) => Err(bad(format!("channel {name} is not 32-bit unsigned"))),
+            None => Err(bad(format!("no channel {name}: not a pathlight image with its film's state"))),
+        }
+    };
+    let mean = [floats("R")?, floats("G")?, floats("B")?];
+    let m2 = [floats("film.m2.R")?, floats("film.m2.G")?, floats("film.m2.B")?];
+    let odd = [floats("film.oddMean.R")?, floats("film.oddMean.G")?, floats("film.oddMean.B")?];
+    let (count, rejected, odd_count) =
+        (integers("film.count")?, integers("film.rejected")?, integers("film.oddCount")?);
+    let pixels = (0..width * height)
+        .map(|i| FilmPixel {
+            mean: [mean[0][i], mean[1][i], mean[2][i]],
+            count: count[i],
+            m2: [m2[0][i], m2[1][i], m2[2][i]],
+            rejected: rejected[i],
+            odd_mean: [odd[0][i], odd[1][i], odd[2][i]],
+            odd_count: odd_count[i],
+        })
+        .collect();
+    let film = Film { width: width as u32, height: height as u32, pixels };
+
+    let attribute = |key: &str| -> Result<String> {
+        let value = layer
+            .attributes
+            .other
+            .get(&Text::from(key))
+            .or_else(|| image.attributes.other.get(&Text::from(key)));
+        match value {
+            Some(AttributeValue::Text(t)) => Ok(t.to_string()),
+            Some(AttributeValue::I32(i)) => Ok(i.to_string()),
+            Some(AttributeValue::F64(f)) => Ok(f.to_string()),
+            Some(other) => Ok(format!("{other:?}")),
+            None => Err(bad(format!("no header attribute {key}"))),
+        }
+    };
+    fn number<T: std::str::FromStr>(path: &Path, key: &str, text: &str) -> Result<T> {
+        text.parse()
+            .map_err(|_| Error::image(path, format!("header attribute {key} is not a number: '{text}'")))
+    }
+    let samples_text = attribute("pathlight.samples")?;
+    let samples = samples_text
+        .split_once("..")
+        .and_then(|(a, b)| Some(a.parse::<u32>().ok()?..b.parse::<u32>().ok()?))
+        .filter(|r| r.start <= r.end)
+        .ok_or_else(|| {
+            bad(format!("header attribute pathlight.samples is not a range A..B: '{samples_text}'"))
+        })?;
+    let max_depth = match attribute("pathlight.maxDepth")?.as_str() {
+        "unlimited" => None,
+        d => Some(number(path, "pathlight.maxDepth", d)?),
+    };
+    let sampler = match attribute("pathlight.sampler")?.as_str() {
+        "sobol" => SamplerKind::Sobol,
+        "independent" => SamplerKind::Independent,
+        other => return Err(bad(format!("unknown sampler '{other}' in pathlight.sampler"))),
+    };
+    let integrator = Integrator::from_name(&attribute("pathlight.integrator")?)
+        .map_err(|e| bad(format!("pathlight.integrator: {e}")))?;
+    let digest_text = attribute("pathlight.sceneDigest")?;
+    let scene_digest = u64::from_str_radix(&digest_text, 16).map_err(|_| {
+        bad(format!("header attribute pathlight.sceneDigest is not hexadecimal: '{digest_text}'"))
+    })?;
+    let meta = RenderMetadata {
+        scene: attribute("pathlight.scene")?,
+        backend: attribute("pathlight.backend")?,
+        spp: number(path, "pathlight.spp", &attribute("pathlight.spp")?)?,
+        seed: number(path, "pathlight.seed", &attribute("pathlight.seed")?)?,
+        integrator,
+        max_depth,
+        sampler,
+        splits: number(path, "pathlight.splits", &attribute("pathlight.splits")?)?,
+        render_seconds: number(path, "pathlight.renderSeconds", &attribute("pathlight.renderSeconds")?)?,
+        rejected_samples: number(
+            path,
+            "pathlight.rejectedSamples",
+            &attribute("pathlight.rejectedSamples")?,
+        )?,
+        samples,
+        total_spp: number(path, "pathlight.totalSpp", &attribute("pathlight.totalSpp")?)?,
+        light_tracing: attribute("pathlight.lightTracing")? == "on",
+        rays: number(path, "pathlight.rays", &attribute("pathlight.rays")?)?,
+        scene_digest,
+        film_state: true,
+    };
+    Ok(FilmFile { path: path.to_path_buf(), film, meta })
+}
