@@ -51,6 +51,8 @@ pub struct RenderMetadata {
     pub rays: u64,
     /// `crate::session::scene_digest` of the scene rendered.
     pub scene_digest: u64,
+    /// The parts' sample ranges a merged image was made of (empty unless merged).
+    pub merged: Vec<std::ops::Range<u32>>,
     /// Write the film's whole per-pixel state too (`super::state`), so that the image can be
     /// merged with others of the same render (shards and merges).
     pub film_state: bool,
@@ -104,6 +106,10 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
     put("pathlight.lightTracing", text(if meta.light_tracing { "on" } else { "off" }.to_string()));
     put("pathlight.rays", text(meta.rays.to_string()));
     put("pathlight.sceneDigest", text(format!("{:016x}", meta.scene_digest)));
+    if !meta.merged.is_empty() {
+        let ranges: Vec<String> = meta.merged.iter().map(|r| format!("{}..{}", r.start, r.end)).collect();
+        put("pathlight.mergedRanges", text(ranges.join(",")));
+    }
     if let Some(relmse) = film.predicted_relmse() {
         put(PREDICTED_RELMSE_ATTRIBUTE, AttributeValue::F64(relmse));
     }

@@ -108,6 +108,7 @@ pub fn merge_parts(mut parts: Vec<FilmFile>) -> Result<(Film, RenderMetadata)> {
         meta.render_seconds += part.meta.render_seconds;
         meta.rejected_samples += part.meta.rejected_samples;
         meta.rays += part.meta.rays;
+        meta.merged.extend(part.meta.merged.iter().cloned());
         if !backends.contains(&part.meta.backend) {
             backends.push(part.meta.backend.clone());
         }

@@ -127,6 +127,19 @@ pub fn read_film_file(path: &Path) -> Result<FilmFile> {
         .ok_or_else(|| {
             bad(format!("header attribute pathlight.samples is not a range A..B: '{samples_text}'"))
         })?;
+    // A merge lists the ranges of its parts; a part is its own one range.
+    let merged = match attribute("pathlight.mergedRanges") {
+        Ok(list) => list
+            .split(',')
+            .map(|r| {
+                r.split_once("..").and_then(|(a, b)| Some(a.parse::<u32>().ok()?..b.parse::<u32>().ok()?))
+            })
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| {
+                bad(format!("header attribute pathlight.mergedRanges is not a list of ranges: '{list}'"))
+            })?,
+        Err(_) => vec![samples.clone()],
+    };
     let max_depth = match attribute("pathlight.maxDepth")?.as_str() {
         "unlimited" => None,
         d => Some(number(path, "pathlight.maxDepth", d)?),
@@ -162,6 +175,7 @@ pub fn read_film_file(path: &Path) -> Result<FilmFile> {
         light_tracing: attribute("pathlight.lightTracing")? == "on",
         rays: number(path, "pathlight.rays", &attribute("pathlight.rays")?)?,
         scene_digest,
+        merged,
         film_state: true,
     };
     Ok(FilmFile { path: path.to_path_buf(), film, meta })

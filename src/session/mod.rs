@@ -466,6 +466,7 @@ impl Session {
             light_tracing: self.settings.light_tracing,
             rays: self.backend.rays_traced()?,
             scene_digest: self.scene_digest,
+            merged: Vec::new(),
             film_state: self.shard,
             seed: self.settings.seed,
             integrator: self.settings.integrator,
