@@ -3,7 +3,7 @@
 
 The image's samples are split into shards (`pathlight render --shard I/N`), each shard is
 a Dask task that runs `pathlight render` on a worker, and the shards are merged exactly
-(`pathlight merge`). Dask does the scheduling and the fault tolerance: a task whose worker
+(`pathlight merge`) by a tree of merge tasks on the workers. Dask does the scheduling and the fault tolerance: a task whose worker
 dies is run again on another one (up to `distributed.scheduler.allowed-failures` times),
 and `--retries` re-runs a shard whose render failed.
 
@@ -50,24 +50,44 @@ def render_shard(pathlight, scene, spp, shard, shards, out_dir, extra):
     return out, time.monotonic() - start
 
 
-def render_farm(client, pathlight, scene, output, spp, shards, work_dir, extra, retries=2):
-    """Submits the shards to `client`, waits for them and merges them into `output`.
-    Returns (seconds per shard, merge seconds)."""
+def merge_parts(pathlight, parts, out):
+    """One merge task: `pathlight merge PARTS -o OUT`; returns OUT and its seconds."""
+    start = time.monotonic()
+    run = subprocess.run([pathlight, "merge", *parts, "-o", out], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise RuntimeError(f"merge of {', '.join(parts)} failed:\n{run.stderr}")
+    return out, time.monotonic() - start
+
+
+def render_farm(client, pathlight, scene, output, spp, shards, work_dir, extra, retries=2, fan_in=4):
+    """Submits the shards to `client` and merges them into `output` as a tree of merge tasks
+    of at most `fan_in` parts each (merging is associative, so the tree's shape does not
+    change the image; one merge of every shard would read them all on one machine).
+    Returns (seconds per shard, seconds per merge task)."""
     os.makedirs(work_dir, exist_ok=True)
-    futures = [
-        client.submit(
-            render_shard, pathlight, scene, spp, i, shards, work_dir, list(extra),
-            key=f"pathlight-shard-{i}-of-{shards}-{os.path.abspath(output)}", retries=retries, pure=False,
-        )
+    tag = f"{shards}-{abs(hash(os.path.abspath(output)))}"
+    level = [
+        client.submit(render_shard, pathlight, scene, spp, i, shards, work_dir, list(extra),
+                      key=f"pathlight-shard-{i}-of-{tag}", retries=retries, pure=False)
         for i in range(shards)
     ]
-    results = client.gather(futures)
-    start = time.monotonic()
-    merge = subprocess.run([pathlight, "merge", *[path for path, _ in results], "-o", output],
-                           capture_output=True, text=True)
-    if merge.returncode != 0:
-        raise RuntimeError(f"merge failed:\n{merge.stderr}")
-    return [seconds for _, seconds in results], time.monotonic() - start
+    shard_futures, merges, depth = list(level), [], 0
+    while True:
+        groups = [level[i:i + fan_in] for i in range(0, len(level), fan_in)]
+        last = len(groups) == 1
+        next_level = []
+        for g, group in enumerate(groups):
+            out = output if last else os.path.join(work_dir, f"merge-{depth}-{g}-of-{shards}.exr")
+            paths = [client.submit(lambda r: r[0], f, pure=False) for f in group]
+            next_level.append(client.submit(lambda ps, o: merge_parts(pathlight, ps, o), paths, out,
+                                            key=f"pathlight-merge-{depth}-{g}-of-{tag}", retries=retries, pure=False))
+        merges.extend(next_level)
+        if last:
+            break
+        level, depth = next_level, depth + 1
+    shard_seconds = [seconds for _, seconds in client.gather(shard_futures)]
+    merge_seconds = [seconds for _, seconds in client.gather(merges)]
+    return shard_seconds, merge_seconds
 
 
 def main(argv):
@@ -86,6 +106,7 @@ def main(argv):
     p.add_argument("--pathlight", default=os.path.abspath("target/release/pathlight"))
     p.add_argument("--work-dir", default="out/farm", help="where the shards are written (shared by the workers)")
     p.add_argument("--retries", type=int, default=2, help="re-runs of a shard whose render failed")
+    p.add_argument("--fan-in", type=int, default=4, help="parts per merge task (merges form a tree)")
     args = p.parse_args(argv)
     if not 1 <= args.shards <= args.spp:
         p.error("--shards must be between 1 and --spp")
@@ -100,11 +121,11 @@ def main(argv):
     start = time.monotonic()
     shard_seconds, merge_seconds = render_farm(
         client, os.path.abspath(args.pathlight), os.path.abspath(args.scene), args.output, args.spp,
-        args.shards, os.path.abspath(args.work_dir), extra, args.retries,
+        args.shards, os.path.abspath(args.work_dir), extra, args.retries, max(2, args.fan_in),
     )
     print(f"{args.shards} shards on {len(client.scheduler_info()['workers'])} worker(s) in "
           f"{time.monotonic() - start:.2f} s (shards {min(shard_seconds):.2f}–{max(shard_seconds):.2f} s, "
-          f"merge {merge_seconds:.2f} s): {args.output}")
+          f"{len(merge_seconds)} merge task(s) {sum(merge_seconds):.2f} s in all): {args.output}")
     client.close()
 
 

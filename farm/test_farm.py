@@ -21,7 +21,7 @@ PATHLIGHT = os.path.abspath("target/release/pathlight")
 SCENE = os.path.abspath("scenes/cornell-box.gltf")
 SPP, SHARDS = 64, 4
 # Big enough that a shard takes a second or two, so the kill lands while one runs.
-RENDER = ["--backend", "cpu", "--width", "160", "--height", "160", "--seed", "3"]
+RENDER = ["--backend", "cpu", "--width", "200", "--height", "200", "--seed", "3"]
 
 
 def main():
@@ -37,31 +37,38 @@ def main():
     killed = {}
 
     def kill_a_worker_mid_shard():
-        # Wait until a shard is running, then kill its worker's process outright.
+        # Wait until a shard has been running a moment, then kill its worker's process
+        # outright, checking just before that the shard has not written its image yet.
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
-            busy = {w: keys for w, keys in client.processing().items() if keys}
+            busy = {w: [k for k in keys if str(k).startswith("pathlight-shard-")]
+                    for w, keys in client.processing().items()}
+            busy = {w: keys for w, keys in busy.items() if keys}
             if busy:
-                time.sleep(0.5)
+                time.sleep(0.2)
                 worker, keys = next(iter(busy.items()))
                 pid = client.run(os.getpid, workers=[worker])[worker]
                 shard = int(str(keys[0]).split("-")[2])
                 out = os.path.join(work, "shards", f"shard-{shard}-of-{SHARDS}.exr")
-                killed.update(worker=worker, pid=pid, shard=shard, finished_before=os.path.exists(out))
+                if os.path.exists(out):
+                    continue
                 os.kill(pid, signal.SIGKILL)
+                killed.update(worker=worker, pid=pid, shard=shard)
                 return
             time.sleep(0.05)
 
     killer = threading.Thread(target=kill_a_worker_mid_shard)
     killer.start()
     merged = os.path.join(work, "merged.exr")
+    # A fan-in of 2: four shards merge in a tree of three tasks.
     shard_seconds, merge_seconds = pathlight_farm.render_farm(
-        client, PATHLIGHT, SCENE, merged, SPP, SHARDS, os.path.join(work, "shards"), RENDER)
+        client, PATHLIGHT, SCENE, merged, SPP, SHARDS, os.path.join(work, "shards"), RENDER, fan_in=2)
+    assert len(merge_seconds) == 3, merge_seconds
     killer.join()
     assert killed, "no shard was seen running, so no worker was killed"
-    assert not killed["finished_before"], f"shard {killed['shard']} had finished before its worker was killed"
     print(f"killed worker {killed['worker']} (pid {killed['pid']}) while it rendered shard {killed['shard']}; "
-          f"shards took {min(shard_seconds):.2f}–{max(shard_seconds):.2f} s, the merge {merge_seconds:.2f} s")
+          f"shards took {min(shard_seconds):.2f}–{max(shard_seconds):.2f} s, {len(merge_seconds)} merges "
+          f"{sum(merge_seconds):.2f} s")
     client.close()
     cluster.close()
 

@@ -15,7 +15,7 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use super::state::{read_film_file, FilmFile};
+use super::state::{read_film, read_film_header, FilmHeader};
 use super::{write_exr, Film, RenderMetadata};
 use crate::error::{Error, Result};
 use crate::scene::layout::FilmPixel;
@@ -43,9 +43,11 @@ pub fn merge_files(inputs: &[PathBuf], output: &Path) -> Result<MergeReport> {
         return Err(Error::Settings(format!("{}: the merged image must be an .exr", output.display())));
     }
     super::check_writable(output)?;
-    let parts = inputs.iter().map(|p| read_film_file(p)).collect::<Result<Vec<_>>>()?;
+    // Every header first, so that a part that does not belong is refused before any pixel
+    // is read; then the films one at a time, so that memory holds two films, not all.
+    let parts = inputs.iter().map(|p| read_film_header(p)).collect::<Result<Vec<_>>>()?;
     let count = parts.len();
-    let (film, meta) = merge_parts(parts)?;
+    let (film, meta) = merge_parts(parts, read_film)?;
     let predicted_relmse = film.predicted_relmse();
     write_exr(&film, &meta, output)?;
     Ok(MergeReport {
@@ -56,9 +58,13 @@ pub fn merge_files(inputs: &[PathBuf], output: &Path) -> Result<MergeReport> {
     })
 }
 
-/// Merges `parts` (any order) into one film and the metadata of its EXR, or says which file
-/// does not belong and why.
-pub fn merge_parts(mut parts: Vec<FilmFile>) -> Result<(Film, RenderMetadata)> {
+/// Merges the parts `parts` describe (any order), each film read by `load` when its turn
+/// comes, into one film and the metadata of its EXR, or says which file does not belong and
+/// why.
+pub fn merge_parts(
+    mut parts: Vec<FilmHeader>,
+    mut load: impl FnMut(&FilmHeader) -> Result<Film>,
+) -> Result<(Film, RenderMetadata)> {
     let Some(first) = parts.first() else {
         return Err(Error::Settings("merge: no input images".into()));
     };
@@ -97,11 +103,15 @@ pub fn merge_parts(mut parts: Vec<FilmFile>) -> Result<(Film, RenderMetadata)> {
     }
     let mut iter = parts.into_iter();
     let first = iter.next().expect("checked non-empty");
-    let mut film = first.film;
+    let mut film = load(&first)?;
     let mut meta = first.meta;
     let mut backends = vec![meta.backend.clone()];
     for part in iter {
-        for (p, q) in film.pixels.iter_mut().zip(&part.film.pixels) {
+        let part_film = load(&part)?;
+        if (part_film.width, part_film.height) != (film.width, film.height) {
+            return Err(Error::image(&part.path, "its pixels do not have the size its header gives"));
+        }
+        for (p, q) in film.pixels.iter_mut().zip(&part_film.pixels) {
             *p = merge_pixels(p, q);
         }
         meta.samples.end = part.meta.samples.end;
@@ -120,7 +130,7 @@ pub fn merge_parts(mut parts: Vec<FilmFile>) -> Result<(Film, RenderMetadata)> {
 }
 
 /// Refuses `b` as a part of `a`'s render, naming the setting that differs.
-fn check_same_render(a: &FilmFile, b: &FilmFile) -> Result<()> {
+fn check_same_render(a: &FilmHeader, b: &FilmHeader) -> Result<()> {
     let (m, n) = (&a.meta, &b.meta);
     let differ = |what: &str, x: String, y: String| -> Result<()> {
         if x == y {
@@ -132,11 +142,7 @@ fn check_same_render(a: &FilmFile, b: &FilmFile) -> Result<()> {
             b.path.display()
         )))
     };
-    differ(
-        "image size",
-        format!("{}×{}", a.film.width, a.film.height),
-        format!("{}×{}", b.film.width, b.film.height),
-    )?;
+    differ("image size", format!("{}×{}", a.width, a.height), format!("{}×{}", b.width, b.height))?;
     // The digest decides: one scene file may sit at different paths on different machines.
     if m.scene_digest != n.scene_digest {
         differ(

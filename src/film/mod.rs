@@ -22,7 +22,7 @@ pub use exr_io::{read_exr, write_exr, ExrImage, RenderMetadata, PREDICTED_RELMSE
 pub use image::LinearImage;
 pub use merge::{merge_files, merge_parts, MergeReport};
 pub use png_io::write_png;
-pub use state::{read_film_file, FilmFile};
+pub use state::{read_film, read_film_file, read_film_header, FilmFile, FilmHeader};
 pub use tonemap::{linear_to_srgb, Tonemap};
 
 use crate::scene::layout::FilmPixel;

@@ -49,9 +49,65 @@ pub struct FilmFile {
     pub meta: RenderMetadata,
 }
 
-/// Reads an EXR that [`super::write_exr`] wrote with `film_state` (a shard, or a merge),
-/// with a message naming the file and what is missing or malformed.
+/// The header of a part: its size and how it was rendered, read without its pixels.
+#[derive(Clone, Debug)]
+pub struct FilmHeader {
+    pub path: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub meta: RenderMetadata,
+}
+
+/// Reads the header of an EXR that [`super::write_exr`] wrote with `film_state` (a shard, or
+/// a merge), with a message naming the file and what is missing or malformed.
+pub fn read_film_header(path: &Path) -> Result<FilmHeader> {
+    let bad = |message: String| Error::image(path, message);
+    let meta_data = std::panic::catch_unwind(|| exr::meta::MetaData::read_from_file(path, false))
+        .map_err(|_| bad("the EXR decoder failed on malformed data".into()))?
+        .map_err(|e| bad(format!("cannot read EXR: {e}")))?;
+    let header = meta_data.headers.first().ok_or_else(|| bad("the EXR has no layer".into()))?;
+    if !header.channels.list.iter().any(|c| c.name.to_string() == "film.count") {
+        return Err(bad(
+            "no channel film.count: not a pathlight image with its film's state (render the parts \
+             with --shard or --samples, or merge files that `pathlight merge` wrote)"
+                .into(),
+        ));
+    }
+    let attribute = |key: &str| -> Result<String> {
+        let key_text = Text::from(key);
+        let value = header
+            .own_attributes
+            .other
+            .get(&key_text)
+            .or_else(|| header.shared_attributes.other.get(&key_text));
+        match value {
+            Some(AttributeValue::Text(t)) => Ok(t.to_string()),
+            Some(AttributeValue::I32(i)) => Ok(i.to_string()),
+            Some(AttributeValue::F64(f)) => Ok(f.to_string()),
+            Some(other) => Ok(format!("{other:?}")),
+            None => Err(bad(format!("no header attribute {key}"))),
+        }
+    };
+    let meta = parse_metadata(path, &attribute)?;
+    let size = header.layer_size;
+    Ok(FilmHeader {
+        path: path.to_path_buf(),
+        width: size.width() as u32,
+        height: size.height() as u32,
+        meta,
+    })
+}
+
+/// Reads a part whole: its header ([`read_film_header`]) and its film.
 pub fn read_film_file(path: &Path) -> Result<FilmFile> {
+    let header = read_film_header(path)?;
+    let film = read_film(&header)?;
+    Ok(FilmFile { path: header.path, film, meta: header.meta })
+}
+
+/// The film of the part `header` describes.
+pub fn read_film(header: &FilmHeader) -> Result<Film> {
+    let path = header.path.as_path();
     let bad = |message: String| Error::image(path, message);
     let image = std::panic::catch_unwind(|| {
         read()
@@ -71,10 +127,7 @@ pub fn read_film_file(path: &Path) -> Result<FilmFile> {
         match find(name).map(|c| &c.sample_data) {
             Some(FlatSamples::F32(v)) => Ok(v.clone()),
             Some(_) => Err(bad(format!("channel {name} is not 32-bit float"))),
-            None => Err(bad(format!(
-                "no channel {name}: not a pathlight image with its film's state (render the parts \
-                 with --shard or --samples, or merge files that `pathlight merge` wrote)"
-            ))),
+            None => Err(bad(format!("no channel {name}: not a pathlight image with its film's state"))),
         }
     };
     let integers = |name: &str| -> Result<Vec<u32>> {
@@ -99,22 +152,12 @@ pub fn read_film_file(path: &Path) -> Result<FilmFile> {
             odd_count: odd_count[i],
         })
         .collect();
-    let film = Film { width: width as u32, height: height as u32, pixels };
+    Ok(Film { width: width as u32, height: height as u32, pixels })
+}
 
-    let attribute = |key: &str| -> Result<String> {
-        let value = layer
-            .attributes
-            .other
-            .get(&Text::from(key))
-            .or_else(|| image.attributes.other.get(&Text::from(key)));
-        match value {
-            Some(AttributeValue::Text(t)) => Ok(t.to_string()),
-            Some(AttributeValue::I32(i)) => Ok(i.to_string()),
-            Some(AttributeValue::F64(f)) => Ok(f.to_string()),
-            Some(other) => Ok(format!("{other:?}")),
-            None => Err(bad(format!("no header attribute {key}"))),
-        }
-    };
+/// The metadata of a part from its header attributes (`attribute` reads one as text).
+fn parse_metadata(path: &Path, attribute: &dyn Fn(&str) -> Result<String>) -> Result<RenderMetadata> {
+    let bad = |message: String| Error::image(path, message);
     fn number<T: std::str::FromStr>(path: &Path, key: &str, text: &str) -> Result<T> {
         text.parse()
             .map_err(|_| Error::image(path, format!("header attribute {key} is not a number: '{text}'")))
@@ -155,7 +198,7 @@ pub fn read_film_file(path: &Path) -> Result<FilmFile> {
     let scene_digest = u64::from_str_radix(&digest_text, 16).map_err(|_| {
         bad(format!("header attribute pathlight.sceneDigest is not hexadecimal: '{digest_text}'"))
     })?;
-    let meta = RenderMetadata {
+    Ok(RenderMetadata {
         scene: attribute("pathlight.scene")?,
         backend: attribute("pathlight.backend")?,
         spp: number(path, "pathlight.spp", &attribute("pathlight.spp")?)?,
@@ -177,6 +220,5 @@ pub fn read_film_file(path: &Path) -> Result<FilmFile> {
         scene_digest,
         merged,
         film_state: true,
-    };
-    Ok(FilmFile { path: path.to_path_buf(), film, meta })
+    })
 }
