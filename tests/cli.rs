@@ -329,6 +329,9 @@ fn shards_render_and_merge_from_the_command_line() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success() && err.contains(message), "{args:?}: {err}");
     }
+    let o = render(&["--shard", "0/3"], &dir.join("part.png"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("needs an .exr output"), "{err}");
     // A gap: parts 0 and 2 only.
     let o = pathlight()
         .arg("merge")

@@ -124,6 +124,15 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
         }
         (None, None) => None,
     };
+    if samples.is_some()
+        && !job.outputs.iter().any(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")))
+    {
+        return Err(Error::Settings(
+            "a part (--samples, --shard) needs an .exr output: only an EXR carries the film's state that \
+             `pathlight merge` reads"
+                .into(),
+        ));
+    }
     if samples.is_some() && (job.time_limit.is_some() || job.target_error.is_some()) {
         return Err(Error::Settings(
             "--time-limit and --target-error would stop a part early and leave a gap in the render; \
