@@ -52,7 +52,14 @@ cargo test --release "${features[@]}"
 # mid-shard. It needs Python 3 with dask.distributed, installed here when missing.
 if ! python3 -c "import distributed" 2>/dev/null; then
     echo "ci/test.sh: installing dask.distributed for the farm test"
-    python3 -m pip install -q "distributed==2024.12.1"
+    python3 -m pip install -q "distributed==2024.12.1" || true
 fi
-cargo build --release --bin pathlight
-python3 farm/test_farm.py
+if python3 -c "import distributed" 2>/dev/null; then
+    cargo build --release "${features[@]}" --bin pathlight
+    python3 farm/test_farm.py
+elif [ "${CI:-}" = true ]; then
+    echo "ci/test.sh: CI=true but dask.distributed could not be installed; the farm test cannot run" >&2
+    exit 1
+else
+    echo "ci/test.sh: SKIPPED the farm test: no Python 3 with dask.distributed (pip install distributed)" >&2
+fi
