@@ -142,6 +142,9 @@ fn bad_input_gets_a_clear_error() {
         "/nonexistent-dir/x.exr",
     ]);
     assert!(e.contains("/nonexistent-dir/x.exr"), "{e}");
+    // An integrator that does not exist is refused, listing the ones that do.
+    let e = run(&["render", cornell.to_str().unwrap(), "--integrator", "photon", "-o", out]);
+    assert!(e.contains("'photon'") && e.contains("[possible values: path]"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -103,3 +103,17 @@ impl Default for IntegratorSettings {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Integrator;
+
+    #[test]
+    fn integrators_are_found_by_name_and_unknown_names_list_the_known_ones() {
+        for i in Integrator::ALL {
+            assert_eq!(Integrator::from_name(i.name()).unwrap(), i);
+        }
+        let e = Integrator::from_name("bdpt-typo").unwrap_err().to_string();
+        assert!(e.contains("unknown integrator 'bdpt-typo'") && e.contains("path"), "{e}");
+    }
+}
