@@ -129,26 +129,35 @@ pub struct ExrImage {
     pub attributes: HashMap<String, String>,
 }
 
-pub fn read_exr(path: &Path) -> Result<ExrImage> {
-    let image = read()
+/// The first layer of the EXR at `path`, every channel and attribute, as the exr crate reads
+/// it.
+pub(super) fn read_first_layer(path: &Path) -> exr::error::Result<Image<Layer<AnyChannels<FlatSamples>>>> {
+    read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .first_valid_layer()
         .all_attributes()
         .from_file(path)
-        .map_err(|e| Error::output(path, format!("cannot read EXR: {e}")))?;
+}
+
+/// An attribute's value as text (numbers in Rust's shortest round-trip form).
+pub(super) fn attribute_text(value: &AttributeValue) -> String {
+    match value {
+        AttributeValue::Text(t) => t.to_string(),
+        AttributeValue::I32(i) => i.to_string(),
+        AttributeValue::F32(f) => f.to_string(),
+        AttributeValue::F64(f) => f.to_string(),
+        other => format!("{other:?}"),
+    }
+}
+
+pub fn read_exr(path: &Path) -> Result<ExrImage> {
+    let image = read_first_layer(path).map_err(|e| Error::output(path, format!("cannot read EXR: {e}")))?;
     let layer = &image.layer_data;
     let mut attributes = HashMap::new();
     for (k, v) in layer.attributes.other.iter().chain(image.attributes.other.iter()) {
-        let text = match v {
-            AttributeValue::Text(t) => t.to_string(),
-            AttributeValue::I32(i) => i.to_string(),
-            AttributeValue::F32(f) => f.to_string(),
-            AttributeValue::F64(f) => f.to_string(),
-            other => format!("{other:?}"),
-        };
-        attributes.insert(k.to_string(), text);
+        attributes.insert(k.to_string(), attribute_text(v));
     }
     let channels = layer
         .channel_data

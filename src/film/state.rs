@@ -80,13 +80,7 @@ pub fn read_film_header(path: &Path) -> Result<FilmHeader> {
             .other
             .get(&key_text)
             .or_else(|| header.shared_attributes.other.get(&key_text));
-        match value {
-            Some(AttributeValue::Text(t)) => Ok(t.to_string()),
-            Some(AttributeValue::I32(i)) => Ok(i.to_string()),
-            Some(AttributeValue::F64(f)) => Ok(f.to_string()),
-            Some(other) => Ok(format!("{other:?}")),
-            None => Err(bad(format!("no header attribute {key}"))),
-        }
+        value.map(super::exr_io::attribute_text).ok_or_else(|| bad(format!("no header attribute {key}")))
     };
     let meta = parse_metadata(path, &attribute)?;
     let size = header.layer_size;
@@ -109,17 +103,9 @@ pub fn read_film_file(path: &Path) -> Result<FilmFile> {
 pub fn read_film(header: &FilmHeader) -> Result<Film> {
     let path = header.path.as_path();
     let bad = |message: String| Error::image(path, message);
-    let image = std::panic::catch_unwind(|| {
-        read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .all_channels()
-            .first_valid_layer()
-            .all_attributes()
-            .from_file(path)
-    })
-    .map_err(|_| bad("the EXR decoder failed on malformed data".into()))?
-    .map_err(|e| bad(format!("cannot read EXR: {e}")))?;
+    let image = std::panic::catch_unwind(|| super::exr_io::read_first_layer(path))
+        .map_err(|_| bad("the EXR decoder failed on malformed data".into()))?
+        .map_err(|e| bad(format!("cannot read EXR: {e}")))?;
     let layer = &image.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
     let find = |name: &str| layer.channel_data.list.iter().find(|c| c.name.to_string() == name);
