@@ -239,7 +239,7 @@ pub fn bench_scene(
             [("specialised", flat.features, specialised), ("general", SceneFeatures::ALL, general)]
         {
             let build = kernel.build_seconds;
-            let tables = kernel.tables.describe();
+            let tables = kernel.key.tables.describe();
             let mut b = GpuBackend::with_kernel(ctx.clone(), kernel, flat, settings)?;
             let m = measure(&mut b, spp, pixels)?;
             push(ctx.name(), &format!("{label} [{}; {tables}]", features.describe()), Some(build), m);

@@ -114,12 +114,7 @@ pub struct Kernel {
     /// Wall time to build the `render` pipeline (override specialisation, SPIR-V generation
     /// and the driver's compile).
     pub build_seconds: f64,
-    /// Can it split samples (`key.splitting`)?
-    pub splitting: bool,
-    /// The forms it reads the scene's small tables in (`key.tables`); a scene's bind group
-    /// must match.
-    pub tables: UniformTables,
-    /// The module and layouts of those forms.
+    /// The module and layouts of `key.tables`' forms (a scene's bind group must match them).
     pub(crate) source: Arc<KernelModule>,
 }
 
@@ -324,15 +319,7 @@ impl GpuContext {
         constants.push(("SPLITTING", if key.splitting { 1.0 } else { 0.0 }));
         let (render, build_seconds) = self.build_pipeline(&source, "render", &constants)?;
         let (first_hit, _) = self.build_pipeline(&source, "first_hit", &constants)?;
-        let kernel = Arc::new(Kernel {
-            key,
-            render,
-            first_hit,
-            build_seconds,
-            splitting: key.splitting,
-            tables: key.tables,
-            source,
-        });
+        let kernel = Arc::new(Kernel { key, render, first_hit, build_seconds, source });
         cache.insert(key, kernel.clone());
         Ok(kernel)
     }

@@ -81,14 +81,14 @@ impl GpuBackend {
                 settings.integrator, kernel.key.integrator
             )));
         }
-        if settings.splitting() && !kernel.splitting {
+        if settings.splitting() && !kernel.key.splitting {
             return Err(Error::Settings(format!(
                 "--splits {}: this kernel was built without splitting",
                 settings.splits
             )));
         }
-        if let Some(misfit) = kernel.tables.misfit(scene) {
-            return Err(Error::Gpu(format!("{misfit} ({})", kernel.tables.describe())));
+        if let Some(misfit) = kernel.key.tables.misfit(scene) {
+            return Err(Error::Gpu(format!("{misfit} ({})", kernel.key.tables.describe())));
         }
         let device = &ctx.device;
         let max_groups = ctx.limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
@@ -124,7 +124,7 @@ impl GpuBackend {
         // One of the scene's small tables (binding `binding`), in the form the kernel reads
         // it: a storage buffer, or a uniform buffer padded to the declared array.
         let table = |what: &str, binding: u32, bytes: &[u8]| -> Result<wgpu::Buffer> {
-            if kernel.tables.is_uniform(binding) {
+            if kernel.key.tables.is_uniform(binding) {
                 Ok(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some(what),
                     contents: &UniformTables::padded(bytes),
@@ -191,7 +191,7 @@ impl GpuBackend {
         // Light tracing as the CPU backend decides it (`CpuBackend::light_traces_caustics`).
         let caustics_kernel =
             if settings.light_tracing && crate::integrator::scene_supports_light_tracing(scene) {
-                Some(ctx.caustics_kernel(scene.features, kernel.tables)?)
+                Some(ctx.caustics_kernel(scene.features, kernel.key.tables)?)
             } else {
                 None
             };
@@ -308,7 +308,7 @@ impl GpuBackend {
 
     /// The forms its kernel reads the scene's small tables in.
     pub fn tables(&self) -> UniformTables {
-        self.kernel.tables
+        self.kernel.key.tables
     }
 
     fn frame_params(&self, sample_offset: u32, samples: u32, row_offset: u32, row_count: u32) -> FrameParams {
