@@ -49,8 +49,9 @@ pub struct RenderMetadata {
     pub light_tracing: bool,
     /// Rays traced (camera, bounce and shadow rays).
     pub rays: u64,
-    /// `crate::session::scene_digest` of the scene rendered.
-    pub scene_digest: u64,
+    /// `crate::session::scene_digest` of the scene rendered: written for the parts of a
+    /// render, which `merge` compares; `None` otherwise.
+    pub scene_digest: Option<u64>,
     /// The parts' sample ranges a merged image was made of (empty unless merged).
     pub merged: Vec<std::ops::Range<u32>>,
     /// Write the film's whole per-pixel state too (`super::state`), so that the image can be
@@ -105,7 +106,9 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
     put("pathlight.totalSpp", text(meta.total_spp.to_string()));
     put("pathlight.lightTracing", text(if meta.light_tracing { "on" } else { "off" }.to_string()));
     put("pathlight.rays", text(meta.rays.to_string()));
-    put("pathlight.sceneDigest", text(format!("{:016x}", meta.scene_digest)));
+    if let Some(digest) = meta.scene_digest {
+        put("pathlight.sceneDigest", text(format!("{digest:016x}")));
+    }
     if !meta.merged.is_empty() {
         let ranges: Vec<String> = meta.merged.iter().map(|r| format!("{}..{}", r.start, r.end)).collect();
         put("pathlight.mergedRanges", text(ranges.join(",")));

@@ -147,8 +147,8 @@ fn check_same_render(a: &FilmHeader, b: &FilmHeader) -> Result<()> {
     if m.scene_digest != n.scene_digest {
         differ(
             "scene",
-            format!("{} ({:016x})", m.scene, m.scene_digest),
-            format!("{} ({:016x})", n.scene, n.scene_digest),
+            format!("{} ({:016x})", m.scene, m.scene_digest.unwrap_or_default()),
+            format!("{} ({:016x})", n.scene, n.scene_digest.unwrap_or_default()),
         )?;
     }
     differ("seed", m.seed.to_string(), n.seed.to_string())?;

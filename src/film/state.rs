@@ -203,7 +203,7 @@ fn parse_metadata(path: &Path, attribute: &dyn Fn(&str) -> Result<String>) -> Re
         total_spp: number(path, "pathlight.totalSpp", &attribute("pathlight.totalSpp")?)?,
         light_tracing: attribute("pathlight.lightTracing")? == "on",
         rays: number(path, "pathlight.rays", &attribute("pathlight.rays")?)?,
-        scene_digest,
+        scene_digest: Some(scene_digest),
         merged,
         film_state: true,
     })

@@ -144,8 +144,6 @@ pub struct Session {
     /// The next sample index to render: samples `first_sample .. spp_done` are in the film.
     spp_done: u32,
     seconds: f64,
-    /// A digest of the flattened scene (`scene_digest`), which `merge` compares.
-    scene_digest: u64,
 }
 
 /// A backend, its film on the device (GPU only), and what opening it cost (GPU only).
@@ -277,7 +275,6 @@ impl Session {
         settings.splits = options.splits.unwrap_or(crate::render::default_splits(device));
         settings.light_tracing = options.light_tracing;
         let (backend, gpu_film, backend_detail) = make_backend(&flat, &settings, gpu.as_ref())?;
-        let scene_digest = scene_digest(&flat);
         Ok(Session {
             backend_detail,
             source: options.scene.clone(),
@@ -294,7 +291,6 @@ impl Session {
             shard: options.samples.is_some(),
             spp_done: samples.start,
             seconds: 0.0,
-            scene_digest,
         })
     }
 
@@ -310,7 +306,6 @@ impl Session {
         Session {
             source,
             scene,
-            scene_digest: scene_digest(&flat),
             camera: flat.camera,
             flat,
             settings,
@@ -465,7 +460,8 @@ impl Session {
             total_spp: self.settings.spp,
             light_tracing: self.settings.light_tracing,
             rays: self.backend.rays_traced()?,
-            scene_digest: self.scene_digest,
+            // Only a part is merged, so only a part pays for hashing the scene.
+            scene_digest: self.shard.then(|| scene_digest(&self.flat)),
             merged: Vec::new(),
             film_state: self.shard,
             seed: self.settings.seed,
