@@ -73,31 +73,26 @@ pub fn merge_parts(
     }
     // In sample order, so that overlaps and gaps are between neighbours.
     parts.sort_by_key(|p| (p.meta.samples.start, p.meta.samples.end));
+    let describe = |p: &FilmHeader| {
+        format!("{} (samples {}..{})", p.path.display(), p.meta.samples.start, p.meta.samples.end)
+    };
     for pair in parts.windows(2) {
         let (a, b) = (&pair[0], &pair[1]);
         let (ra, rb) = (&a.meta.samples, &b.meta.samples);
         if rb.start < ra.end {
             return Err(Error::Settings(format!(
-                "{} (samples {}..{}) and {} (samples {}..{}) overlap: a sample would be counted twice",
-                a.path.display(),
-                ra.start,
-                ra.end,
-                b.path.display(),
-                rb.start,
-                rb.end
+                "{} and {} overlap: a sample would be counted twice",
+                describe(a),
+                describe(b)
             )));
         }
         if rb.start > ra.end {
             return Err(Error::Settings(format!(
-                "samples {}..{} are missing between {} (samples {}..{}) and {} (samples {}..{})",
+                "samples {}..{} are missing between {} and {}",
                 ra.end,
                 rb.start,
-                a.path.display(),
-                ra.start,
-                ra.end,
-                b.path.display(),
-                rb.start,
-                rb.end
+                describe(a),
+                describe(b)
             )));
         }
     }
@@ -163,33 +158,31 @@ fn check_same_render(a: &FilmHeader, b: &FilmHeader) -> Result<()> {
 /// The accumulator of `a`'s samples and `b`'s together (the module's formulas).
 pub fn merge_pixels(a: &FilmPixel, b: &FilmPixel) -> FilmPixel {
     let (na, nb) = (a.count as f64, b.count as f64);
-    let n = na + nb;
-    let mut out = FilmPixel {
+    let m2 = std::array::from_fn(|c| {
+        let delta = b.mean[c] as f64 - a.mean[c] as f64;
+        // With no sample on either side the cross term is 0 · δ² / 0: there is nothing to add.
+        let cross = if a.count > 0 && b.count > 0 { delta * delta * na * nb / (na + nb) } else { 0.0 };
+        (a.m2[c] as f64 + b.m2[c] as f64 + cross) as f32
+    });
+    FilmPixel {
+        mean: merged_mean(a.count, a.mean, b.count, b.mean),
         count: a.count + b.count,
+        m2,
         rejected: a.rejected + b.rejected,
+        odd_mean: merged_mean(a.odd_count, a.odd_mean, b.odd_count, b.odd_mean),
         odd_count: a.odd_count + b.odd_count,
-        ..*a
-    };
-    if b.count == 0 {
-        out.mean = a.mean;
-        out.m2 = a.m2;
-    } else if a.count == 0 {
-        out.mean = b.mean;
-        out.m2 = b.m2;
-    } else {
-        for c in 0..3 {
-            let delta = b.mean[c] as f64 - a.mean[c] as f64;
-            out.mean[c] = (a.mean[c] as f64 + delta * nb / n) as f32;
-            out.m2[c] = (a.m2[c] as f64 + b.m2[c] as f64 + delta * delta * na * nb / n) as f32;
+    }
+}
+
+/// The mean of `na` samples of mean `a` and `nb` of mean `b`, x̄_a + (x̄_b − x̄_a)·n_b/n; a side
+/// with no samples leaves the other's mean exactly as it was.
+fn merged_mean(na: u32, a: [f32; 3], nb: u32, b: [f32; 3]) -> [f32; 3] {
+    match (na, nb) {
+        (_, 0) => a,
+        (0, _) => b,
+        _ => {
+            let share = nb as f64 / (na as f64 + nb as f64);
+            std::array::from_fn(|c| (a[c] as f64 + (b[c] as f64 - a[c] as f64) * share) as f32)
         }
     }
-    let (oa, ob) = (a.odd_count as f64, b.odd_count as f64);
-    out.odd_mean = if b.odd_count == 0 {
-        a.odd_mean
-    } else if a.odd_count == 0 {
-        b.odd_mean
-    } else {
-        std::array::from_fn(|c| ((oa * a.odd_mean[c] as f64 + ob * b.odd_mean[c] as f64) / (oa + ob)) as f32)
-    };
-    out
 }

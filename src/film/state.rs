@@ -106,28 +106,32 @@ pub fn read_film(header: &FilmHeader) -> Result<Film> {
     let image = std::panic::catch_unwind(|| super::exr_io::read_first_layer(path))
         .map_err(|_| bad("the EXR decoder failed on malformed data".into()))?
         .map_err(|e| bad(format!("cannot read EXR: {e}")))?;
-    let layer = &image.layer_data;
-    let (width, height) = (layer.size.width(), layer.size.height());
-    let find = |name: &str| layer.channel_data.list.iter().find(|c| c.name.to_string() == name);
-    let floats = |name: &str| -> Result<Vec<f32>> {
-        match find(name).map(|c| &c.sample_data) {
-            Some(FlatSamples::F32(v)) => Ok(v.clone()),
+    let (width, height) = (image.layer_data.size.width(), image.layer_data.size.height());
+    // The channels are moved out of the decoded image, not copied: a 4K part's are 300 MB.
+    let mut channels: std::collections::HashMap<String, FlatSamples> =
+        image.layer_data.channel_data.list.into_iter().map(|c| (c.name.to_string(), c.sample_data)).collect();
+    let missing = |name: &str| bad(format!("no channel {name}: not a pathlight image with its film's state"));
+    let mut floats = |name: &str| -> Result<Vec<f32>> {
+        match channels.remove(name) {
+            Some(FlatSamples::F32(v)) => Ok(v),
             Some(_) => Err(bad(format!("channel {name} is not 32-bit float"))),
-            None => Err(bad(format!("no channel {name}: not a pathlight image with its film's state"))),
-        }
-    };
-    let integers = |name: &str| -> Result<Vec<u32>> {
-        match find(name).map(|c| &c.sample_data) {
-            Some(FlatSamples::U32(v)) => Ok(v.clone()),
-            Some(_) => Err(bad(format!("channel {name} is not 32-bit unsigned"))),
-            None => Err(bad(format!("no channel {name}: not a pathlight image with its film's state"))),
+            None => Err(missing(name)),
         }
     };
     let mean = [floats("R")?, floats("G")?, floats("B")?];
     let m2 = [floats("film.m2.R")?, floats("film.m2.G")?, floats("film.m2.B")?];
     let odd = [floats("film.oddMean.R")?, floats("film.oddMean.G")?, floats("film.oddMean.B")?];
+    let mut integers = |name: &str| -> Result<Vec<u32>> {
+        match channels.remove(name) {
+            Some(FlatSamples::U32(v)) => Ok(v),
+            Some(_) => Err(bad(format!("channel {name} is not 32-bit unsigned"))),
+            None => Err(missing(name)),
+        }
+    };
     let (count, rejected, odd_count) =
         (integers("film.count")?, integers("film.rejected")?, integers("film.oddCount")?);
+    // What is left (the variance channels) is not needed: the film derives it.
+    drop(channels);
     let pixels = (0..width * height)
         .map(|i| FilmPixel {
             mean: [mean[0][i], mean[1][i], mean[2][i]],
