@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use super::SceneArgs;
 use pathlight::film::Tonemap;
-use pathlight::session::{JobEvent, RenderJob, Session};
+use pathlight::session::{shard_samples, JobEvent, RenderJob, Session};
 use pathlight::tev::TevStream;
 use pathlight::Error;
 
@@ -89,13 +89,6 @@ fn parse_shard(s: &str) -> Result<(u32, u32), String> {
     Ok((i, n))
 }
 
-/// Part `i` of `n` of `spp` samples: ⌊i·spp/n⌋..⌊(i+1)·spp/n⌋ (empty when n > spp and the
-/// part gets no sample).
-pub fn shard_samples(i: u32, n: u32, spp: u32) -> std::ops::Range<u32> {
-    let at = |k: u32| (k as u64 * spp as u64 / n as u64) as u32;
-    at(i)..at(i + 1)
-}
-
 pub fn run(args: RenderArgs) -> Result<(), Error> {
     let mut job = RenderJob {
         tonemap: match args.tonemap {
@@ -124,21 +117,8 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
         }
         (None, None) => None,
     };
-    if samples.is_some()
-        && !job.outputs.iter().any(|o| o.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")))
-    {
-        return Err(Error::Settings(
-            "a part (--samples, --shard) needs an .exr output: only an EXR carries the film's state that \
-             `pathlight merge` reads"
-                .into(),
-        ));
-    }
-    if samples.is_some() && (job.time_limit.is_some() || job.target_error.is_some()) {
-        return Err(Error::Settings(
-            "--time-limit and --target-error would stop a part early and leave a gap in the render; \
-             a part (--samples, --shard) renders its whole range"
-                .into(),
-        ));
+    if samples.is_some() {
+        job.check_part()?;
     }
     let mut options = args.common.session_options(args.spp);
     options.samples = samples;

@@ -125,6 +125,27 @@ impl RenderJob {
         Ok(())
     }
 
+    /// Checks a job that renders a part of a render (`SessionOptions::samples`): it needs an
+    /// EXR output, the only one that carries the film's state `merge` reads, and no limit that
+    /// could stop it before its range's end and leave a gap.
+    pub fn check_part(&self) -> Result<()> {
+        if !self.outputs.iter().any(|o| extension(o).as_deref() == Some("exr")) {
+            return Err(Error::Settings(
+                "a part (--samples, --shard) needs an .exr output: only an EXR carries the film's state \
+                 that `pathlight merge` reads"
+                    .into(),
+            ));
+        }
+        if self.time_limit.is_some() || self.target_error.is_some() {
+            return Err(Error::Settings(
+                "--time-limit and --target-error would stop a part early and leave a gap in the render; \
+                 a part (--samples, --shard) renders its whole range"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+
     /// Reads `path` as the job's reference, which must have the session's image size.
     pub fn read_reference(path: &Path, session: &Session) -> Result<LinearImage> {
         let (width, height) = (session.settings.width, session.settings.height);

@@ -19,6 +19,14 @@ mod job;
 
 pub use job::{check_outputs, check_target_error, JobEvent, JobReport, RenderJob};
 
+/// Part `i` of `n` of a render of `spp` samples per pixel (`--shard I/N`, a Kubernetes
+/// completion index or a Slurm array task id): the sample indices ⌊i·spp/n⌋..⌊(i+1)·spp/n⌋,
+/// empty when n > spp leaves the part none.
+pub fn shard_samples(i: u32, n: u32, spp: u32) -> std::ops::Range<u32> {
+    let at = |k: u32| (k as u64 * spp as u64 / n as u64) as u32;
+    at(i)..at(i + 1)
+}
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
