@@ -64,6 +64,20 @@ fn uniform_and_storage_tables_give_the_same_image() {
     assert!(e.to_string().contains("nodes from a uniform buffer of 2048 records"), "{e}");
 }
 
+/// The path tracer's unsplit kernel for `scene` whose traversal keeps `limit` deferred
+/// children instead of `SHORT_STACK_SIZE`.
+fn short_stack_kernel(
+    ctx: &pathlight::gpu::GpuContext,
+    scene: &pathlight::scene::FlatScene,
+    limit: u32,
+) -> std::sync::Arc<pathlight::gpu::Kernel> {
+    ctx.kernel(KernelKey {
+        short_stack_limit: limit,
+        ..KernelKey::new(Integrator::Path, scene.features, false)
+    })
+    .unwrap()
+}
+
 #[test]
 fn short_stack_size_does_not_change_the_image() {
     // The traversal keeps up to SHORT_STACK_SIZE deferred children in registers, pushing the
@@ -77,12 +91,7 @@ fn short_stack_size_does_not_change_the_image() {
     let (size, spp) = (24, 4);
     let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
     let render = |limit: u32| {
-        let kernel = ctx
-            .kernel(KernelKey {
-                short_stack_limit: limit,
-                ..KernelKey::new(Integrator::Path, scene.features, false)
-            })
-            .unwrap();
+        let kernel = short_stack_kernel(&ctx, &scene, limit);
         let mut backend =
             GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &settings(size, spp, 3)).unwrap();
         let film = common::render(&mut backend, spp);
@@ -157,12 +166,7 @@ fn restart_trail_is_exact_past_depth_32() {
             let scene = deep_chain_scene(pairs, 1.5f32.powi(k));
             let depths = common::leaf_depths(&scene.nodes);
             let hits = |limit: u32| {
-                let kernel = ctx
-                    .kernel(KernelKey {
-                        short_stack_limit: limit,
-                        ..KernelKey::new(Integrator::Path, scene.features, false)
-                    })
-                    .unwrap();
+                let kernel = short_stack_kernel(&ctx, &scene, limit);
                 let mut backend =
                     GpuBackend::with_kernel(ctx.clone(), kernel, &scene, &settings(size, 1, 3)).unwrap();
                 backend.first_hits().unwrap()
