@@ -152,36 +152,30 @@ fn parse_metadata(path: &Path, attribute: &dyn Fn(&str) -> Result<String>) -> Re
         text.parse()
             .map_err(|_| Error::image(path, format!("header attribute {key} is not a number: '{text}'")))
     }
+    // `A..B`, as `write_exr` writes a range.
+    let range = |text: &str| {
+        text.split_once("..")
+            .and_then(|(a, b)| Some(a.parse::<u32>().ok()?..b.parse::<u32>().ok()?))
+            .filter(|r| r.start <= r.end)
+    };
     let samples_text = attribute("pathlight.samples")?;
-    let samples = samples_text
-        .split_once("..")
-        .and_then(|(a, b)| Some(a.parse::<u32>().ok()?..b.parse::<u32>().ok()?))
-        .filter(|r| r.start <= r.end)
-        .ok_or_else(|| {
-            bad(format!("header attribute pathlight.samples is not a range A..B: '{samples_text}'"))
-        })?;
+    let samples = range(&samples_text).ok_or_else(|| {
+        bad(format!("header attribute pathlight.samples is not a range A..B: '{samples_text}'"))
+    })?;
     // A merge lists the ranges of its parts; a part is its own one range.
     let merged = match attribute("pathlight.mergedRanges") {
-        Ok(list) => list
-            .split(',')
-            .map(|r| {
-                r.split_once("..").and_then(|(a, b)| Some(a.parse::<u32>().ok()?..b.parse::<u32>().ok()?))
-            })
-            .collect::<Option<Vec<_>>>()
-            .ok_or_else(|| {
-                bad(format!("header attribute pathlight.mergedRanges is not a list of ranges: '{list}'"))
-            })?,
+        Ok(list) => list.split(',').map(range).collect::<Option<Vec<_>>>().ok_or_else(|| {
+            bad(format!("header attribute pathlight.mergedRanges is not a list of ranges: '{list}'"))
+        })?,
         Err(_) => vec![samples.clone()],
     };
     let max_depth = match attribute("pathlight.maxDepth")?.as_str() {
         "unlimited" => None,
         d => Some(number(path, "pathlight.maxDepth", d)?),
     };
-    let sampler = match attribute("pathlight.sampler")?.as_str() {
-        "sobol" => SamplerKind::Sobol,
-        "independent" => SamplerKind::Independent,
-        other => return Err(bad(format!("unknown sampler '{other}' in pathlight.sampler"))),
-    };
+    let sampler_name = attribute("pathlight.sampler")?;
+    let sampler = SamplerKind::from_name(&sampler_name)
+        .ok_or_else(|| bad(format!("unknown sampler '{sampler_name}' in pathlight.sampler")))?;
     let integrator = Integrator::from_name(&attribute("pathlight.integrator")?)
         .map_err(|e| bad(format!("pathlight.integrator: {e}")))?;
     let digest_text = attribute("pathlight.sceneDigest")?;

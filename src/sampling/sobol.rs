@@ -50,6 +50,14 @@ pub enum SamplerKind {
 }
 
 impl SamplerKind {
+    /// Every sampler.
+    pub const ALL: [SamplerKind; 2] = [SamplerKind::Sobol, SamplerKind::Independent];
+
+    /// The sampler called `name` ([`SamplerKind::name`]), if there is one.
+    pub fn from_name(name: &str) -> Option<SamplerKind> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
     /// Its name on the command line and in EXR metadata.
     pub fn name(self) -> &'static str {
         match self {
