@@ -157,7 +157,7 @@ fn write(image: &LinearImage, path: &Path) {
         p.mean = image.rgb[i];
         p.m2 = var.get(i).map_or([0.0; 3], |v| v.map(|v| 2.0 * v));
     }
-    let meta = RenderMetadata { spp: 2, ..RenderMetadata::default() };
+    let meta = RenderMetadata { samples: 0..2, ..RenderMetadata::default() };
     write_exr(&film, &meta, path).unwrap();
 }
 

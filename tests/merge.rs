@@ -118,7 +118,7 @@ fn shards_merged_equal_one_render_and_merging_is_associative() {
             let reference = pathlight::film::LinearImage::read(&whole).unwrap();
             let merged_file = read_film_file(&merged).unwrap();
             assert_eq!(merged_file.meta.samples, 0..12);
-            assert_eq!(merged_file.meta.spp, 12);
+            assert_eq!(merged_file.meta.spp(), 12);
             assert_eq!(merged_file.meta.merged, vec![0..5, 5..6, 6..12], "{what}: the ranges merged");
             // The whole render through its session's film, compared pixel by pixel.
             let mut session = Session::open_with(

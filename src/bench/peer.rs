@@ -182,7 +182,6 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
     let meta = RenderMetadata {
         scene: scene.name.clone(),
         backend: backend.name(),
-        spp: settings.spp,
         seed: settings.seed,
         integrator: settings.integrator,
         max_depth: None,

@@ -25,8 +25,6 @@ pub const PREDICTED_RELMSE_ATTRIBUTE: &str = "pathlight.predictedRelMSE";
 pub struct RenderMetadata {
     pub scene: String,
     pub backend: String,
-    /// Samples per pixel completed.
-    pub spp: u32,
     pub seed: u32,
     /// The estimator that rendered the image (`--integrator`).
     pub integrator: crate::integrator::Integrator,
@@ -41,7 +39,8 @@ pub struct RenderMetadata {
     pub render_seconds: f64,
     /// Non-finite samples dropped.
     pub rejected_samples: u64,
-    /// The sample indices in the image (`0..spp` unless it is a shard or a merge of some).
+    /// The sample indices in the image (`0..spp` unless it is a shard or a merge of some);
+    /// their count is the image's samples per pixel ([`RenderMetadata::spp`]).
     pub samples: std::ops::Range<u32>,
     /// The samples per pixel of the whole render these samples belong to (`--spp`).
     pub total_spp: u32,
@@ -57,6 +56,13 @@ pub struct RenderMetadata {
     /// Write the film's whole per-pixel state too (`super::state`), so that the image can be
     /// merged with others of the same render (shards and merges).
     pub film_state: bool,
+}
+
+impl RenderMetadata {
+    /// Samples per pixel completed: the length of [`RenderMetadata::samples`].
+    pub fn spp(&self) -> u32 {
+        self.samples.end.saturating_sub(self.samples.start)
+    }
 }
 
 pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> {
@@ -83,7 +89,7 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
     let mut put = |k: &str, v: AttributeValue| {
         attributes.other.insert(Text::from(k), v);
     };
-    put("pathlight.spp", AttributeValue::I32(meta.spp as i32));
+    put("pathlight.spp", AttributeValue::I32(meta.spp() as i32));
     put("pathlight.seed", AttributeValue::Text(Text::from(meta.seed.to_string().as_str())));
     put("pathlight.integrator", AttributeValue::Text(Text::from(meta.integrator.name())));
     put("pathlight.backend", AttributeValue::Text(Text::from(meta.backend.as_str())));

@@ -118,7 +118,6 @@ pub fn merge_parts(
             backends.push(part.meta.backend.clone());
         }
     }
-    meta.spp = meta.samples.end - meta.samples.start;
     meta.backend = backends.join(" + ");
     meta.film_state = true;
     Ok((film, meta))

@@ -185,7 +185,6 @@ fn parse_metadata(path: &Path, attribute: &dyn Fn(&str) -> Result<String>) -> Re
     Ok(RenderMetadata {
         scene: attribute("pathlight.scene")?,
         backend: attribute("pathlight.backend")?,
-        spp: number(path, "pathlight.spp", &attribute("pathlight.spp")?)?,
         seed: number(path, "pathlight.seed", &attribute("pathlight.seed")?)?,
         integrator,
         max_depth,

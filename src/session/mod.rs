@@ -463,7 +463,6 @@ impl Session {
         Ok(RenderMetadata {
             scene: self.source.display().to_string(),
             backend: self.backend.name(),
-            spp: self.spp_done - self.first_sample,
             samples: self.first_sample..self.spp_done,
             total_spp: self.settings.spp,
             light_tracing: self.settings.light_tracing,
