@@ -33,6 +33,13 @@ pub struct RenderSettings {
     /// Let a light tracer take the caustic paths where the scene allows it
     /// (`crate::integrator::supports_light_tracing`), on either backend.
     pub light_tracing: bool,
+    /// Bidirectional path tracing only: render strategy (s, t) alone, with weight 1 and
+    /// every other strategy left out (`--bdpt-strategy`): it then converges to the image of
+    /// the paths it can make, which tests its densities apart from the weights.
+    pub bdpt_strategy: Option<(u32, u32)>,
+    /// Bidirectional path tracing only: keep each strategy's weighted contribution as an
+    /// image of its own (`--bdpt-strategies`, `Backend::strategy_images`).
+    pub record_strategies: bool,
 }
 
 impl Default for RenderSettings {
@@ -48,6 +55,8 @@ impl Default for RenderSettings {
             sampler: SamplerKind::default(),
             splits: 1,
             light_tracing: false,
+            bdpt_strategy: None,
+            record_strategies: false,
         }
     }
 }
@@ -131,6 +140,19 @@ impl RenderSettings {
         if self.spp == 0 {
             return Err(crate::Error::Settings("--spp must be at least 1".into()));
         }
+        if self.integrator != Integrator::Bdpt && (self.bdpt_strategy.is_some() || self.record_strategies) {
+            return Err(crate::Error::Settings(format!(
+                "--bdpt-strategy and --bdpt-strategies are options of --integrator bdpt, not of --integrator {}",
+                self.integrator
+            )));
+        }
+        if let Some((s, t)) = self.bdpt_strategy {
+            if t == 0 || (s, t) == (1, 1) {
+                return Err(crate::Error::Settings(format!(
+                    "--bdpt-strategy {s},{t}: strategies have t ≥ 1 camera vertices, and (1, 1) is not one of bdpt's"
+                )));
+            }
+        }
         if !(1..=MAX_SPLITS).contains(&self.splits) {
             return Err(crate::Error::Settings(format!(
                 "--splits must be between 1 and {MAX_SPLITS}, not {}",
@@ -151,6 +173,15 @@ pub trait Backend {
     fn film(&mut self) -> Result<Film>;
     /// Rays traced so far (camera and bounce rays, and shadow rays), for throughput.
     fn rays_traced(&mut self) -> Result<u64>;
+    /// Bidirectional path tracing's per-strategy images, when the settings asked for them
+    /// ([`RenderSettings::record_strategies`]).
+    fn strategy_images(&mut self) -> Result<Option<crate::integrator::bdpt::StrategyImages>> {
+        Ok(None)
+    }
+    /// What bidirectional path tracing counted (`None` for other integrators).
+    fn bdpt_stats(&mut self) -> Option<crate::integrator::bdpt::BdptStats> {
+        None
+    }
     /// Adds sample `sample_index` to the pixels of image rows `rows` only: bounded work, for
     /// a viewer that must stay responsive (a pixel's samples stay in order, so rendering
     /// every row for each index in turn gives the same film as [`Backend::render`]).

@@ -91,6 +91,11 @@ pub struct SceneArgs {
     /// where the scene allows it.
     #[arg(long)]
     pub no_light_tracing: bool,
+    /// With --integrator bdpt: render strategy S,T alone (S light and T camera vertices),
+    /// unweighted: it converges to the image of the paths it can make (a test of its
+    /// densities).
+    #[arg(long, value_name = "S,T", value_parser = parse_strategy)]
+    pub bdpt_strategy: Option<(u32, u32)>,
     /// Camera index in the file (default: the first camera, or one framing the scene).
     #[arg(long)]
     pub camera: Option<usize>,
@@ -137,6 +142,8 @@ impl SceneArgs {
             max_depth: self.max_depth,
             splits: self.splits,
             light_tracing: !self.no_light_tracing,
+            bdpt_strategy: self.bdpt_strategy,
+            record_strategies: false,
             sampler: match self.sampler {
                 SamplerChoice::Sobol => pathlight::sampling::SamplerKind::Sobol,
                 SamplerChoice::Independent => pathlight::sampling::SamplerKind::Independent,
@@ -149,6 +156,13 @@ impl SceneArgs {
             device: self.device.clone(),
         }
     }
+}
+
+/// Parses `S,T`.
+fn parse_strategy(s: &str) -> Result<(u32, u32), String> {
+    let (a, b) = s.split_once(',').ok_or("expected S,T, e.g. 2,2")?;
+    let parse = |x: &str| x.trim().parse::<u32>().map_err(|e| format!("'{x}': {e}"));
+    Ok((parse(a)?, parse(b)?))
 }
 
 /// `--integrator`'s parser: the names of [`Integrator::ALL`], so that the list cannot drift.

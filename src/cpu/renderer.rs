@@ -3,10 +3,12 @@
 use rayon::prelude::*;
 
 use crate::film::{film_add_sample, Film};
+use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, StrategyImages, Subpaths};
+use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
-use crate::integrator::{light_tracing::trace_caustic_pass, path::radiance, Integrator, IntegratorSettings};
+use crate::integrator::{path::radiance, Integrator, IntegratorSettings};
 use crate::render::{Backend, RenderSettings};
-use crate::sampling::{replicate_of, PathSampler};
+use crate::sampling::{replicate_of, PathSampler, Rng};
 use crate::scene::camera::generate_camera_ray;
 use crate::scene::layout::Camera;
 use crate::scene::FlatScene;
@@ -46,6 +48,35 @@ pub struct CpuBackend<'a> {
     /// The settings' and the scene's half of [`Self::light_traces_caustics`], decided once:
     /// `scene_supports_light_tracing` reads every triangle.
     scene_light_traced: bool,
+    /// Bidirectional path tracing: the sample values of every pixel for the sample index
+    /// last rendered (its splats land anywhere in the image, so a pass is rendered whole
+    /// before any band of it is added).
+    bdpt_pass: Option<(u32, Vec<glam::Vec3>)>,
+    bdpt_stats: BdptStats,
+    /// `--bdpt-strategies`: each strategy's weighted contributions summed over the passes
+    /// rendered, and the number of passes.
+    strategies: Option<(StrategyImages, u32)>,
+}
+
+/// A bidirectional sample's destination: its own pixel's sum, the t = 1 splats, and each
+/// strategy's share when they are recorded.
+struct PixelSink<'a> {
+    own: glam::Vec3,
+    pixel: usize,
+    splats: &'a mut Vec<(usize, glam::Vec3)>,
+    strategies: Option<&'a mut Vec<(u32, u32, usize, glam::Vec3)>>,
+}
+
+impl BdptSink for PixelSink<'_> {
+    fn add(&mut self, s: u32, t: u32, pixel: Option<usize>, value: glam::Vec3) {
+        match pixel {
+            Some(p) => self.splats.push((p, value)),
+            None => self.own += value,
+        }
+        if let Some(record) = self.strategies.as_mut() {
+            record.push((s, t, pixel.unwrap_or(self.pixel), value));
+        }
+    }
 }
 
 impl<'a> CpuBackend<'a> {
@@ -63,7 +94,18 @@ impl<'a> CpuBackend<'a> {
             rays: vec![0; settings.width as usize * settings.height as usize],
             light_rays: 0,
             caustic_pass: None,
+            bdpt_pass: None,
+            bdpt_stats: BdptStats::default(),
+            strategies: settings.record_strategies.then(|| (StrategyImages::new(), 0)),
         }
+    }
+
+    /// Each strategy's mean weighted contribution per pixel over the passes rendered (its
+    /// images sum to the render), when [`RenderSettings::record_strategies`] asked for them.
+    pub fn strategy_images(&self) -> Option<StrategyImages> {
+        let (images, passes) = self.strategies.as_ref()?;
+        let scale = 1.0 / (*passes).max(1) as f32;
+        Some(images.iter().map(|(k, image)| (*k, image.iter().map(|v| *v * scale).collect())).collect())
     }
 
     /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
@@ -79,6 +121,7 @@ impl<'a> CpuBackend<'a> {
             rr_min_depth: s.rr_min_depth,
             splits: s.splits,
             caustics_by_light_tracing: self.light_traces_caustics(),
+            only_strategy: s.bdpt_strategy,
         }
     }
 }
@@ -94,6 +137,21 @@ impl CpuBackend<'_> {
     /// Adds samples `samples` to the rows `rows` of the film.
     fn render_band(&mut self, samples: std::ops::Range<u32>, rows: std::ops::Range<u32>) {
         let integrator = self.integrator_settings();
+        if self.settings.integrator == Integrator::Bdpt {
+            for k in samples {
+                if self.bdpt_pass.as_ref().map(|(pass, _)| *pass) != Some(k) {
+                    let values = self.render_bdpt_pass(k, &integrator);
+                    self.bdpt_pass = Some((k, values));
+                }
+                let (_, values) = self.bdpt_pass.as_ref().expect("rendered above");
+                let w = self.settings.width as usize;
+                let band = rows.start as usize * w..rows.end.min(self.settings.height) as usize * w;
+                for (pixel, value) in self.film.pixels[band.clone()].iter_mut().zip(&values[band]) {
+                    film_add_sample(pixel, *value, replicate_of(k));
+                }
+            }
+            return;
+        }
         if !integrator.caustics_by_light_tracing {
             return self.render_band_with(samples, rows, &integrator, None);
         }
@@ -116,6 +174,86 @@ impl CpuBackend<'_> {
             );
             self.caustic_pass = pass;
         }
+    }
+
+    /// Bidirectional path tracing's sample index `k` of every pixel: each pixel's camera
+    /// subpath with the light subpath of the same index, its own strategies plus the image
+    /// of all pixels' t = 1 splats over the number of light paths (one per pixel, as the
+    /// camera's density in `bdpt` assumes).
+    fn render_bdpt_pass(&mut self, k: u32, integrator: &IntegratorSettings) -> Vec<glam::Vec3> {
+        let scene: &FlatScene = &self.scene;
+        let s = &self.settings;
+        let (width, height, seed) = (s.width, s.height, s.seed);
+        let ctx = BdptContext::new(scene, &self.camera, integrator, width, height);
+        let record = self.strategies.is_some();
+        let w = width as usize;
+        type Row = (Vec<glam::Vec3>, Vec<(usize, glam::Vec3)>, Vec<(u32, u32, usize, glam::Vec3)>, BdptStats);
+        let rows: Vec<Row> = self
+            .rays
+            .par_chunks_mut(w)
+            .enumerate()
+            .map(|(y, rays)| {
+                let mut own = Vec::with_capacity(w);
+                let mut splats = Vec::new();
+                let mut strategies = Vec::new();
+                let mut stats = BdptStats::default();
+                let mut paths = Subpaths::new();
+                for (x, rays) in rays.iter_mut().enumerate() {
+                    let pixel = y * w + x;
+                    let mut sampler = PathSampler::new(s.sampler, x as u32, y as u32, k, seed);
+                    let mut light_rng = Rng::new(pixel as u32, LIGHT_PATH_STREAM, k, seed);
+                    let ray = generate_camera_ray(
+                        &self.camera,
+                        width,
+                        height,
+                        x as u32,
+                        y as u32,
+                        sampler.next_2d(),
+                    );
+                    let mut sink = PixelSink {
+                        own: glam::Vec3::ZERO,
+                        pixel,
+                        splats: &mut splats,
+                        strategies: record.then_some(&mut strategies),
+                    };
+                    bdpt_sample(
+                        &ctx,
+                        ray,
+                        &mut sampler,
+                        &mut light_rng,
+                        &mut paths,
+                        &mut sink,
+                        rays,
+                        &mut stats,
+                    );
+                    own.push(sink.own);
+                }
+                (own, splats, strategies, stats)
+            })
+            .collect();
+        let pixels = w * height as usize;
+        let scale = 1.0 / pixels as f32;
+        let mut values = Vec::with_capacity(pixels);
+        let mut splat_lists = Vec::with_capacity(rows.len());
+        for (own, splats, strategies, stats) in rows {
+            values.extend(own);
+            splat_lists.push(splats);
+            self.bdpt_stats += stats;
+            if let Some((images, _)) = self.strategies.as_mut() {
+                for (s, t, pixel, value) in strategies {
+                    let image = images.entry((s, t)).or_insert_with(|| vec![glam::Vec3::ZERO; pixels]);
+                    image[pixel] += if t == 1 { value * scale } else { value };
+                }
+            }
+        }
+        if let Some((_, passes)) = self.strategies.as_mut() {
+            *passes += 1;
+        }
+        let splatted = sum_splats(pixels, &splat_lists, scale);
+        for (value, splat) in values.iter_mut().zip(splatted) {
+            *value += splat;
+        }
+        values
     }
 
     /// [`Self::render_band`] for one integrator, with `caustics` (the light tracer's image
@@ -148,6 +286,7 @@ impl CpuBackend<'_> {
                             generate_camera_ray(camera, width, height, x as u32, y as u32, sampler.next_2d());
                         let l = match s.integrator {
                             Integrator::Path => radiance(scene, integrator, ray, cone, &mut sampler, rays),
+                            Integrator::Bdpt => unreachable!("bidirectional passes are rendered whole"),
                         };
                         film_add_sample(pixel, l + light_traced, replicate_of(k));
                     }
@@ -176,12 +315,18 @@ impl Backend for CpuBackend<'_> {
         self.film = Film::new(self.settings.width, self.settings.height);
         self.rays.iter_mut().for_each(|r| *r = 0);
         self.light_rays = 0;
+        self.bdpt_pass = None;
+        self.bdpt_stats = BdptStats::default();
+        if let Some(strategies) = self.strategies.as_mut() {
+            *strategies = (StrategyImages::new(), 0);
+        }
         Ok(())
     }
 
     fn set_camera(&mut self, camera: &Camera) -> crate::Result<()> {
         self.camera = *camera;
         self.caustic_pass = None;
+        self.bdpt_pass = None;
         Ok(())
     }
 
@@ -191,5 +336,13 @@ impl Backend for CpuBackend<'_> {
 
     fn rays_traced(&mut self) -> crate::Result<u64> {
         Ok(self.rays.iter().sum::<u64>() + self.light_rays)
+    }
+
+    fn strategy_images(&mut self) -> crate::Result<Option<StrategyImages>> {
+        Ok(CpuBackend::strategy_images(self))
+    }
+
+    fn bdpt_stats(&mut self) -> Option<BdptStats> {
+        (self.settings.integrator == Integrator::Bdpt).then_some(self.bdpt_stats)
     }
 }

@@ -214,6 +214,11 @@ impl GpuContext {
     /// `integrator`'s module and layouts reading the tables in the forms `tables`, made on
     /// first use.
     fn module(&self, integrator: Integrator, tables: UniformTables) -> Result<Arc<KernelModule>> {
+        if !integrator.has_gpu_kernel() {
+            return Err(Error::Settings(format!(
+                "--integrator {integrator}: the GPU backend has no kernel for it yet; render it with --backend cpu"
+            )));
+        }
         let mut modules = self.modules.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(m) = modules.get(&(integrator, tables)) {
             return Ok(m.clone());

@@ -45,6 +45,9 @@ const PATH_FILES: &[ShaderFile] = &[
 pub fn integrator_files(integrator: Integrator) -> &'static [ShaderFile] {
     match integrator {
         Integrator::Path => PATH_FILES,
+        // No WGSL twin yet: `GpuContext` refuses to build its kernel
+        // (`Integrator::has_gpu_kernel`).
+        Integrator::Bdpt => &[],
     }
 }
 
@@ -122,7 +125,7 @@ mod tests {
 
     #[test]
     fn every_wgsl_file_validates_with_its_dependencies() {
-        for integrator in Integrator::ALL {
+        for integrator in Integrator::ALL.into_iter().filter(|i| i.has_gpu_kernel()) {
             let files = kernel_files(integrator);
             for i in 1..=files.len() {
                 if let Err(e) =
@@ -138,7 +141,7 @@ mod tests {
     /// have stricter layout rules than storage ones).
     #[test]
     fn kernel_validates_with_every_table_form() {
-        for integrator in Integrator::ALL {
+        for integrator in Integrator::ALL.into_iter().filter(|i| i.has_gpu_kernel()) {
             for bits in 0..16u32 {
                 let tables = UniformTables {
                     nodes: bits & 1 != 0,

@@ -110,21 +110,29 @@ pub fn trace_caustic_pass(
             (splats, rays)
         })
         .collect();
-    let mut sums = vec![[0u64; 3]; paths];
     let mut rays = 0;
-    let scale = 1.0 / paths as f32;
+    let mut lists = Vec::with_capacity(tasks.len());
     for (splats, task_rays) in tasks {
         rays += task_rays;
-        for (pixel, value) in splats {
-            let value = value * scale;
-            for (sum, v) in sums[pixel].iter_mut().zip(value.to_array()) {
-                // At most 2⁴⁴ per splat (`caustic_to_fixed`): 2²⁰ of them cannot wrap.
-                *sum = sum.wrapping_add(caustic_to_fixed(v));
-            }
+        lists.push(splats);
+    }
+    let image = sum_splats(paths, &lists, 1.0 / paths as f32);
+    (image, rays)
+}
+
+/// The image of `splats` (pixel, value) over `pixels` pixels, each value times `scale`,
+/// summed in the fixed point of [`caustic_to_fixed`]: the same integers in any order, so the
+/// image does not depend on how the splats were gathered (the kernel adds them atomically).
+pub fn sum_splats(pixels: usize, splats: &[Vec<(usize, Vec3)>], scale: f32) -> Vec<Vec3> {
+    let mut sums = vec![[0u64; 3]; pixels];
+    for (pixel, value) in splats.iter().flatten() {
+        let value = *value * scale;
+        for (sum, v) in sums[*pixel].iter_mut().zip(value.to_array()) {
+            // At most 2⁴⁴ per splat (`caustic_to_fixed`): 2²⁰ of them cannot wrap.
+            *sum = sum.wrapping_add(caustic_to_fixed(v));
         }
     }
-    let image = sums.iter().map(|s| Vec3::from(s.map(caustic_from_fixed))).collect();
-    (image, rays)
+    sums.iter().map(|s| Vec3::from(s.map(caustic_from_fixed))).collect()
 }
 
 /// Traces one light path and pushes its camera connections as (pixel, value) before the

@@ -4,6 +4,7 @@
 //! | integrator | `--integrator` | CPU half | WGSL twin |
 //! |---|---|---|---|
 //! | unidirectional path tracing with next-event estimation and MIS, its caustics optionally left to a light tracer | `path` | [`path`], [`light_tracing`] | `shaders/path.wgsl`, `shaders/light_tracing.wgsl` |
+//! | bidirectional path tracing, every strategy weighted by MIS | `bdpt` | [`bdpt`] | not yet: the GPU backend refuses it |
 //!
 //! What every integrator shares lives beside them, each with a WGSL twin of the same name:
 //! * [`interaction`]: the surface record built at every path vertex and the side test of a
@@ -20,6 +21,7 @@
 //! integrator as it is specialised per scene feature. Both backends dispatch on
 //! [`crate::RenderSettings::integrator`].
 
+pub mod bdpt;
 pub mod interaction;
 pub mod light_tracing;
 pub mod mis;
@@ -45,16 +47,29 @@ pub enum Integrator {
     /// (`crate::RenderSettings::light_tracing`).
     #[default]
     Path,
+    /// Bidirectional path tracing with every strategy weighted by MIS (Veach 1997, ch. 10;
+    /// [`bdpt`]).
+    Bdpt,
 }
 
 impl Integrator {
     /// Every integrator, in the order `--integrator` lists them.
-    pub const ALL: [Integrator; 1] = [Integrator::Path];
+    pub const ALL: [Integrator; 2] = [Integrator::Path, Integrator::Bdpt];
 
     /// The name `--integrator` takes and outputs record.
     pub fn name(self) -> &'static str {
         match self {
             Integrator::Path => "path",
+            Integrator::Bdpt => "bdpt",
+        }
+    }
+
+    /// Does the GPU backend have a kernel for it? (Bidirectional path tracing's WGSL twin is
+    /// still to come: the GPU backend refuses it, and `--backend auto` renders it on the CPU.)
+    pub fn has_gpu_kernel(self) -> bool {
+        match self {
+            Integrator::Path => true,
+            Integrator::Bdpt => false,
         }
     }
 
@@ -91,6 +106,9 @@ pub struct IntegratorSettings {
     /// and only with its pass added to every sample (the kernel's twin is
     /// `frame.light_traced_caustics`).
     pub caustics_by_light_tracing: bool,
+    /// Bidirectional path tracing: strategy (s, t) alone, unweighted
+    /// (`crate::RenderSettings::bdpt_strategy`).
+    pub only_strategy: Option<(u32, u32)>,
 }
 
 impl Default for IntegratorSettings {
@@ -100,6 +118,7 @@ impl Default for IntegratorSettings {
             rr_min_depth: DEFAULT_RR_MIN_DEPTH,
             splits: 1,
             caustics_by_light_tracing: false,
+            only_strategy: None,
         }
     }
 }

@@ -46,6 +46,12 @@ pub struct LightSample {
     pub is_delta: bool,
     /// The visibility test: unoccluded iff it hits nothing.
     pub shadow_ray: Ray,
+    /// The light's index in the light array (bidirectional path tracing weighs the sample
+    /// against its other strategies with the light's own densities).
+    pub light_index: u32,
+    /// The point sampled on the light (emissive triangle), or the light's position (point
+    /// and spot); unused for the environment and directional lights, which lie at infinity.
+    pub position: Vec3,
 }
 
 /// Chooses a light with probability `pmf` using two uniforms (column, coin).
@@ -169,6 +175,8 @@ pub fn sample_light(
                 pdf,
                 is_delta: false,
                 shadow_ray: spawn_ray_to(p, p_error, n_geometric, q_off),
+                light_index: index as u32,
+                position: q,
             })
         }
         LIGHT_POINT | LIGHT_SPOT => {
@@ -189,6 +197,8 @@ pub fn sample_light(
                 pdf: pmf,
                 is_delta: true,
                 shadow_ray: spawn_ray_to(p, p_error, n_geometric, pos),
+                light_index: index as u32,
+                position: pos,
             })
         }
         LIGHT_ENVIRONMENT => {
@@ -204,6 +214,8 @@ pub fn sample_light(
                 pdf: pmf * pdf,
                 is_delta: false,
                 shadow_ray: spawn_ray(p, p_error, n_geometric, wi),
+                light_index: index as u32,
+                position: Vec3::ZERO,
             })
         }
         LIGHT_DIRECTIONAL => {
@@ -214,6 +226,8 @@ pub fn sample_light(
                 pdf: pmf,
                 is_delta: true,
                 shadow_ray: spawn_ray(p, p_error, n_geometric, wi),
+                light_index: index as u32,
+                position: Vec3::ZERO,
             })
         }
         _ => None,

@@ -47,6 +47,9 @@ pub struct FlatScene {
     pub bvh_stats: BvhStats,
     /// Radius of the sphere about the scene's bounding-box centre that holds it.
     pub scene_radius: f32,
+    /// That sphere's centre (camera-relative): bidirectional path tracing starts the paths of
+    /// lights at infinity (environment, directional) on a disk of `scene_radius` about it.
+    pub scene_center: Vec3,
     /// The environment light (`params.present == 0` when there is none).
     pub environment: FlatEnvironment,
     /// The scene has no light of its own and no environment was given, so it is lit by
@@ -161,6 +164,7 @@ impl FlatScene {
         };
 
         let scene_radius = (0.5 * (bmax - bmin).length()).max(1e-6) as f32;
+        let scene_center = rel(0.5 * (bmin + bmax));
 
         // Lights and their powers (pbrt-v4 `PowerLightSampler`): Φ = π·A·L (×2 two-sided)
         // for emissive triangles, 4π·I for point lights, 2π·I·(1 − (cos_in + cos_out)/2) for
@@ -289,6 +293,7 @@ impl FlatScene {
             features,
             bvh_stats: bvh.stats,
             scene_radius,
+            scene_center,
             environment,
             default_environment,
             textures,

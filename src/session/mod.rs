@@ -97,6 +97,10 @@ pub struct SessionOptions {
     /// Let a light tracer take the caustic paths where the scene allows it
     /// (`RenderSettings::light_tracing`).
     pub light_tracing: bool,
+    /// `RenderSettings::bdpt_strategy` (`--bdpt-strategy`).
+    pub bdpt_strategy: Option<(u32, u32)>,
+    /// `RenderSettings::record_strategies` (`--bdpt-strategies`).
+    pub record_strategies: bool,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
     pub device: Option<String>,
@@ -120,6 +124,8 @@ impl SessionOptions {
             sampler: SamplerKind::default(),
             splits: None,
             light_tracing: true,
+            bdpt_strategy: None,
+            record_strategies: false,
             backend: BackendChoice::Auto,
             device: None,
         }
@@ -232,6 +238,8 @@ impl Session {
             // A count asked for is checked here, before any work; without one the chosen
             // backend's default replaces this below.
             splits: options.splits.unwrap_or(1),
+            bdpt_strategy: options.bdpt_strategy,
+            record_strategies: options.record_strategies,
             ..RenderSettings::default()
         };
         settings.validate()?;
@@ -250,6 +258,13 @@ impl Session {
         let mut backend_note = None;
         let choice = match (options.backend, &options.device) {
             (BackendChoice::Auto, Some(_)) => BackendChoice::Gpu,
+            (BackendChoice::Auto, None) if !options.integrator.has_gpu_kernel() => {
+                backend_note = Some(format!(
+                    "backend auto: the GPU backend has no {} kernel yet; rendering on the CPU backend",
+                    options.integrator
+                ));
+                BackendChoice::Cpu
+            }
             (BackendChoice::Auto, None) => match &gpu {
                 Some(ctx) if ctx.is_hardware() => BackendChoice::Gpu,
                 _ => {
@@ -440,6 +455,16 @@ impl Session {
     /// Rays traced so far.
     pub fn rays_traced(&mut self) -> Result<u64> {
         self.backend.rays_traced()
+    }
+
+    /// Bidirectional path tracing's per-strategy images (`--bdpt-strategies`).
+    pub fn strategy_images(&mut self) -> Result<Option<crate::integrator::bdpt::StrategyImages>> {
+        self.backend.strategy_images()
+    }
+
+    /// What bidirectional path tracing counted (`None` for other integrators).
+    pub fn bdpt_stats(&mut self) -> Option<crate::integrator::bdpt::BdptStats> {
+        self.backend.bdpt_stats()
     }
 
     /// Forgets every sample (the camera or the scene changed).
