@@ -197,5 +197,12 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
         report.rejected,
         session.backend_name()
     );
+    if let Some(bdpt) = session.bdpt_stats() {
+        eprintln!(
+            "bdpt: {} light subpath(s) reached the bound of {} vertices and ended there (the weights leave out the strategies it makes impossible)",
+            bdpt.truncated,
+            pathlight::integrator::bdpt::BDPT_MAX_VERTICES
+        );
+    }
     Ok(())
 }

@@ -34,7 +34,7 @@
 //! direction (its layers scale by albedos of that direction, and the shading frame turns to
 //! face it), so it is not reciprocal: a vertex's value f(ω_c, ω_l) is always the BSDF built
 //! for the direction towards the camera's side, as the path tracer evaluates it, whichever
-//! subpath the vertex belongs to ([`Vertex::f_cos`]). A light subpath samples its next
+//! subpath the vertex belongs to ([`Seen::f_cos`]). A light subpath samples its next
 //! direction from the BSDF built for the direction it arrived from, and weighs by the ratio.
 //! Delta lobes are weighed as the light tracer weighs them (their value seen from either
 //! side is the same Fresnel factor for the refracting and mirror materials the scenes use).
@@ -60,19 +60,17 @@
 use glam::{Vec2, Vec3};
 
 use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
-use super::light_tracing::LIGHT_RR_MIN_VERTICES;
+use super::light_tracing::{sample_triangle_emission, LIGHT_RR_MIN_VERTICES};
 use super::roulette::{survival_probability, MAX_BOUNCES_GUARD, RR_ANY_BOUNCE_DEPTH};
 use super::IntegratorSettings;
 use crate::bsdf::GltfBsdf;
 use crate::bvh::ClosestHit;
 use crate::geometry::{spawn_ray, spawn_ray_to, Frame, Ray, TriangleHit};
 use crate::light::{
-    choose_light, environment_lookup, sample_environment, sample_light, sample_triangle_point, spot_falloff,
+    choose_light, environment_lookup, sample_environment, sample_light, spot_falloff,
     triangle_light_normal_area,
 };
-use crate::sampling::{
-    sample_cosine_hemisphere, sample_uniform_disk_concentric, sample_uniform_sphere, PathSampler, Rng,
-};
+use crate::sampling::{sample_uniform_disk_concentric, sample_uniform_sphere, PathSampler, Rng};
 use crate::scene::camera::PinholeProjection;
 use crate::scene::layout::{
     Camera, Material, INVALID_INDEX, LIGHT_DIRECTIONAL, LIGHT_ENVIRONMENT, LIGHT_POINT, LIGHT_SPOT,
@@ -216,62 +214,57 @@ impl Vertex {
     }
 
     /// The surface as a path arriving from direction `w` (unit, world, pointing away from
-    /// the surface) sees it, with its BSDF built for `w`.
-    fn seen_from(&self, scene: &FlatScene, w: Vec3) -> Option<(SurfaceInteraction, GltfBsdf)> {
+    /// the surface) sees it, with its BSDF built for `w`: the vertex's own record when `w`
+    /// is the direction its subpath arrived from.
+    fn seen_from(&self, scene: &FlatScene, w: Vec3) -> Option<Seen> {
         let s = self.surface.as_ref()?;
+        if w == s.si.wo_world {
+            return Some(Seen { si: s.si, bsdf: s.bsdf });
+        }
         let same_side = (w.dot(s.si.n_geometric) > 0.0) == s.si.front_face;
         if s.view_independent && same_side {
             let mut si = s.si;
             si.wo_world = w;
             si.wo = si.frame.to_local(w);
             let bsdf = GltfBsdf::new(&s.material, si.wo, si.front_face, si.coat_normal);
-            return Some((si, bsdf));
+            return Some(Seen { si, bsdf });
         }
         let ray = Ray { origin: s.si.p + w, direction: -w, t_max: f32::MAX };
         let hit = ClosestHit { triangle: s.hit.triangle, hit: TriangleHit { t: 1.0, ..s.hit.hit } };
         let si = surface_interaction(scene, &ray, &hit, 0.0);
         let material = vertex_material(scene, &si);
         let bsdf = GltfBsdf::new(&material, si.wo, si.front_face, si.coat_normal);
-        Some((si, bsdf))
+        Some(Seen { si, bsdf })
     }
+}
 
-    /// f(ω_c, ω_l)·|ω_l·n_s| at this surface: the BSDF built for `w_camera` (the direction
-    /// towards the camera's end) evaluated for `w_light`, times the cosine at the light's
-    /// side in that frame. Zero where the two sides disagree (`sides_agree`).
-    fn f_cos(&self, scene: &FlatScene, w_camera: Vec3, w_light: Vec3) -> Vec3 {
-        let Some(s) = &self.surface else { return Vec3::ZERO };
-        let (si, bsdf) = if w_camera == s.si.wo_world {
-            (s.si, s.bsdf)
-        } else {
-            match self.seen_from(scene, w_camera) {
-                Some(seen) => seen,
-                None => return Vec3::ZERO,
-            }
-        };
-        let wi = si.frame.to_local(w_light);
-        if !sides_agree(&si, w_light, wi) {
+/// A surface seen from one direction ([`Vertex::seen_from`]): its interaction and its BSDF
+/// built for that direction, which both a vertex's value and its densities read.
+struct Seen {
+    si: SurfaceInteraction,
+    bsdf: GltfBsdf,
+}
+
+impl Seen {
+    /// f(ω_c, ω_l)·|ω_l·n_s|, ω_c the direction it is seen from (towards the camera's end):
+    /// the BSDF evaluated for `w_light`, times the cosine at the light's side in this frame.
+    /// Zero where the two sides disagree (`sides_agree`).
+    fn f_cos(&self, w_light: Vec3) -> Vec3 {
+        let wi = self.si.frame.to_local(w_light);
+        if !sides_agree(&self.si, w_light, wi) {
             return Vec3::ZERO;
         }
-        bsdf.eval(si.wo, wi) * wi.z.abs()
+        self.bsdf.eval(self.si.wo, wi) * wi.z.abs()
     }
 
-    /// The density per solid angle with which a subpath that arrived here from direction
-    /// `w_from` samples `w_to` (unit, world, both pointing away from the surface).
-    fn pdf_scatter(&self, scene: &FlatScene, w_from: Vec3, w_to: Vec3) -> f32 {
-        let Some(s) = &self.surface else { return 0.0 };
-        let (si, bsdf) = if w_from == s.si.wo_world {
-            (s.si, s.bsdf)
-        } else {
-            match self.seen_from(scene, w_from) {
-                Some(seen) => seen,
-                None => return 0.0,
-            }
-        };
-        let wi = si.frame.to_local(w_to);
-        if !sides_agree(&si, w_to, wi) {
+    /// The density per solid angle with which a subpath arriving from the direction it is
+    /// seen from samples `w_to` (unit, world, pointing away from the surface).
+    fn pdf(&self, w_to: Vec3) -> f32 {
+        let wi = self.si.frame.to_local(w_to);
+        if !sides_agree(&self.si, w_to, wi) {
             return 0.0;
         }
-        bsdf.pdf(si.wo, wi)
+        self.bsdf.pdf(self.si.wo, wi)
     }
 }
 
@@ -605,18 +598,21 @@ impl Walk {
                 };
                 (0.0, bs.weight * (bs.eta_scale * shading))
             }
-            (Transport::Radiance, false) => (v.pdf_scatter(scene, w_next, si.wo_world), bs.weight),
+            (Transport::Radiance, false) => {
+                (v.seen_from(scene, w_next).map_or(0.0, |seen| seen.pdf(si.wo_world)), bs.weight)
+            }
             (Transport::Importance, false) => {
                 // The value is the BSDF built for the camera's side, `w_next` (the module's
                 // "Adjoint"), over the density it was sampled with from the light's side.
-                let f_cos = v.f_cos(scene, w_next, si.wo_world);
+                let seen = v.seen_from(scene, w_next)?;
+                let f_cos = seen.f_cos(si.wo_world);
                 let cos_in = si.wo_world.dot(ng).abs();
                 let weight = if cos_in > 0.0 {
                     f_cos * (w_next.dot(ng).abs() / (cos_in * bs.pdf_solid_angle))
                 } else {
                     Vec3::ZERO
                 };
-                (v.pdf_scatter(scene, w_next, si.wo_world), weight)
+                (seen.pdf(si.wo_world), weight)
             }
         };
         let (p, p_error) = (si.p, si.p_error);
@@ -676,23 +672,18 @@ fn light_subpath(
     // density per unit area before the cosine at y₁).
     let (y0, ray, beta, pdf_direction) = match light.kind {
         LIGHT_TRIANGLE => {
-            let tri = &scene.triangles[light.triangle as usize];
-            let material = &scene.materials[tri.material as usize];
-            let (n_light, area) = triangle_light_normal_area(light);
-            if area == 0.0 {
+            let Some(e) = sample_triangle_emission(scene, light, u_point, u_side, u_direction) else {
                 return;
-            }
-            let (b, q, q_error) = sample_triangle_point(tri, u_point);
-            let double_sided = material.flags & MATERIAL_DOUBLE_SIDED != 0;
-            let sides = if double_sided { 2.0 } else { 1.0 };
-            let n_emit = if double_sided && u_side < 0.5 { -n_light } else { n_light };
-            let le = emitted_radiance(&scene.texture_arrays(), material, light.triangle as usize, b);
-            let local = sample_cosine_hemisphere(u_direction);
-            let direction = Frame::from_z(n_emit).from_local(local);
-            // Le cos θ / (pdf_point · pdf_direction) with pdf_direction = cos θ / (π · sides).
-            let beta = le * (std::f32::consts::PI * area * sides / pmf);
-            let y0 = Vertex::endpoint(Kind::TriangleLight, q, n_emit, index as u32, le, pmf / area);
-            (y0, spawn_ray(q, q_error, n_emit, direction), beta, local.z / (std::f32::consts::PI * sides))
+            };
+            let y0 = Vertex::endpoint(
+                Kind::TriangleLight,
+                e.point,
+                e.normal,
+                index as u32,
+                e.radiance,
+                e.pdf_area,
+            );
+            (y0, e.ray, e.beta, e.pdf_direction)
         }
         LIGHT_POINT | LIGHT_SPOT => {
             let position = Vec3::from(light.position);
@@ -996,7 +987,8 @@ fn join_camera(
     }
     let (pixel, cos_theta, direction, distance2) = projection.project(qs.p)?;
     let w_camera = -direction;
-    let f_cos = qs.f_cos(scene, w_camera, surface.si.wo_world);
+    let seen = qs.seen_from(scene, w_camera)?;
+    let f_cos = seen.f_cos(surface.si.wo_world);
     if f_cos.max_element() <= 0.0 {
         return None;
     }
@@ -1019,7 +1011,7 @@ fn join_camera(
     }
     let join = JoinDensities {
         light_end: x0.convert_density(camera_pdf_direction(ctx.camera, direction), qs),
-        light_before: qs.convert_density(qs.pdf_scatter(scene, w_camera, surface.si.wo_world), &light[s - 2]),
+        light_before: qs.convert_density(seen.pdf(surface.si.wo_world), &light[s - 2]),
         ..JoinDensities::default()
     };
     Some((pixel, value * mis_weight(ctx, camera, light, s, 1, &join)))
@@ -1072,7 +1064,8 @@ fn join_light_sample(
         light_end: if ls.is_delta { 0.0 } else { pt.convert_density(surface.bsdf.pdf(si.wo, wi), &y0) },
         camera_end: pdf_light(scene, &y0, pt),
         camera_before: if t >= 3 {
-            pt.convert_density(pt.pdf_scatter(scene, ls.wi, si.wo_world), cam.before)
+            let pdf = pt.seen_from(scene, ls.wi).map_or(0.0, |seen| seen.pdf(si.wo_world));
+            pt.convert_density(pdf, cam.before)
         } else {
             0.0
         },
@@ -1114,11 +1107,14 @@ fn join(
         }
     }
     let w = d / dist2.sqrt();
-    let f_camera = pt.f_cos(scene, cs.si.wo_world, w);
+    let own = |s: &Surface| Seen { si: s.si, bsdf: s.bsdf };
+    let (pt_own, qs_own) = (own(cs), own(ls));
+    let f_camera = pt_own.f_cos(w);
     if f_camera.max_element() <= 0.0 {
         return Vec3::ZERO;
     }
-    let f_light = qs.f_cos(scene, -w, ls.si.wo_world);
+    let Some(qs_seen) = qs.seen_from(scene, -w) else { return Vec3::ZERO };
+    let f_light = qs_seen.f_cos(ls.si.wo_world);
     if f_light.max_element() <= 0.0 {
         return Vec3::ZERO;
     }
@@ -1143,11 +1139,12 @@ fn join(
         return Vec3::ZERO;
     }
     let join = JoinDensities {
-        light_end: pt.convert_density(pt.pdf_scatter(scene, cs.si.wo_world, w), qs),
-        light_before: qs.convert_density(qs.pdf_scatter(scene, -w, ls.si.wo_world), &light[s - 2]),
-        camera_end: qs.convert_density(qs.pdf_scatter(scene, ls.si.wo_world, -w), pt),
+        light_end: pt.convert_density(pt_own.pdf(w), qs),
+        light_before: qs.convert_density(qs_seen.pdf(ls.si.wo_world), &light[s - 2]),
+        camera_end: qs.convert_density(qs_own.pdf(-w), pt),
         camera_before: if t >= 3 {
-            pt.convert_density(pt.pdf_scatter(scene, w, cs.si.wo_world), cam.before)
+            let pdf = pt.seen_from(scene, w).map_or(0.0, |seen| seen.pdf(cs.si.wo_world));
+            pt.convert_density(pdf, cam.before)
         } else {
             0.0
         },

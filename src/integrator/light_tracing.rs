@@ -27,7 +27,7 @@
 //! Only scenes where it computes exactly what the path tracer drops use it
 //! ([`super::partition::supports_light_tracing`]).
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
@@ -39,7 +39,7 @@ use crate::geometry::{spawn_ray, spawn_ray_to, Frame, Ray, TriangleHit};
 use crate::light::{choose_light, sample_triangle_point, triangle_light_normal_area};
 use crate::sampling::{sample_cosine_hemisphere, Rng};
 use crate::scene::camera::PinholeProjection;
-use crate::scene::layout::{Camera, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
+use crate::scene::layout::{Camera, Light, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
 use crate::scene::texture::emitted_radiance;
 use crate::scene::FlatScene;
 
@@ -135,6 +135,62 @@ pub fn sum_splats(pixels: usize, splats: &[Vec<(usize, Vec3)>], scale: f32) -> V
     sums.iter().map(|s| Vec3::from(s.map(caustic_from_fixed))).collect()
 }
 
+/// Where a light path leaves an emissive triangle ([`sample_triangle_emission`]).
+pub struct TriangleEmission {
+    /// The point on the triangle.
+    pub point: Vec3,
+    /// The normal of the side the path leaves from.
+    pub normal: Vec3,
+    /// The emitted radiance there.
+    pub radiance: Vec3,
+    /// The ray leaving it (unit direction).
+    pub ray: Ray,
+    /// Its throughput, Le cos θ / (pdf_point · pdf_direction).
+    pub beta: Vec3,
+    /// Density per unit area of the point, the light's choice included.
+    pub pdf_area: f32,
+    /// Density per solid angle of the direction.
+    pub pdf_direction: f32,
+}
+
+/// A light path's start on emissive-triangle light `light`: a point uniform by area
+/// (`u_point`), the side it leaves from (the front, the winding's side, or either, by the
+/// coin `u_side`, for a double-sided material), and a cosine-weighted direction
+/// (`u_direction`). `None` for a degenerate triangle. The light tracer and bidirectional
+/// path tracing both start their light paths here.
+pub fn sample_triangle_emission(
+    scene: &FlatScene,
+    light: &Light,
+    u_point: Vec2,
+    u_side: f32,
+    u_direction: Vec2,
+) -> Option<TriangleEmission> {
+    let tri = &scene.triangles[light.triangle as usize];
+    let material = &scene.materials[tri.material as usize];
+    let (n_light, area) = triangle_light_normal_area(light);
+    if area == 0.0 {
+        return None;
+    }
+    let (b, q, q_error) = sample_triangle_point(tri, u_point);
+    let double_sided = material.flags & MATERIAL_DOUBLE_SIDED != 0;
+    let sides = if double_sided { 2.0 } else { 1.0 };
+    let normal = if double_sided && u_side < 0.5 { -n_light } else { n_light };
+    let radiance = emitted_radiance(&scene.texture_arrays(), material, light.triangle as usize, b);
+    let local = sample_cosine_hemisphere(u_direction);
+    let direction = Frame::from_z(normal).from_local(local);
+    // Point density pmf / area, cosine-weighted direction density cos θ / π (per side):
+    // β = Le cos θ / (pdf_point pdf_direction) = Le π area sides / pmf.
+    Some(TriangleEmission {
+        point: q,
+        normal,
+        radiance,
+        ray: spawn_ray(q, q_error, normal, direction),
+        beta: radiance * (std::f32::consts::PI * area * sides / light.pmf),
+        pdf_area: light.pmf / area,
+        pdf_direction: local.z / (std::f32::consts::PI * sides),
+    })
+}
+
 /// Traces one light path and pushes its camera connections as (pixel, value) before the
 /// division by the number of paths.
 fn trace_light_path(
@@ -155,28 +211,13 @@ fn trace_light_path(
     if light.kind != LIGHT_TRIANGLE || light.pmf <= 0.0 {
         return;
     }
-    let tri = &scene.triangles[light.triangle as usize];
-    let material = &scene.materials[tri.material as usize];
-    let (n_light, area) = triangle_light_normal_area(light);
-    if area == 0.0 {
-        return;
-    }
-    let (b, q, q_error) = sample_triangle_point(tri, u_point);
-    // Emission leaves the front (the winding's side), or either side, chosen by a coin,
-    // for a double-sided material.
-    let double_sided = material.flags & MATERIAL_DOUBLE_SIDED != 0;
-    let sides = if double_sided { 2.0 } else { 1.0 };
-    let n_emit = if double_sided && u_side < 0.5 { -n_light } else { n_light };
-    let le = emitted_radiance(&scene.texture_arrays(), material, light.triangle as usize, b);
-    // Point density pmf / area, cosine-weighted direction density cos θ / π (per side):
-    // β = Le cos θ / (pdf_point pdf_direction) = Le π area sides / pmf.
-    let mut beta = le * (std::f32::consts::PI * area * sides / light.pmf);
+    let Some(emission) = sample_triangle_emission(scene, light, u_point, u_side, u_direction) else { return };
+    let mut beta = emission.beta;
     if !beta.is_finite() || beta.max_element() <= 0.0 {
         return;
     }
     let roulette_scale = 1.0 / beta.max_element();
-    let direction = Frame::from_z(n_emit).from_local(sample_cosine_hemisphere(u_direction));
-    let mut ray = spawn_ray(q, q_error, n_emit, direction);
+    let mut ray = emission.ray;
 
     // Vertex j of the light path is the j-th scattering event of the finished path.
     for j in 1..=MAX_BOUNCES_GUARD {
