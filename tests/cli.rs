@@ -144,7 +144,11 @@ fn bad_input_gets_a_clear_error() {
     assert!(e.contains("/nonexistent-dir/x.exr"), "{e}");
     // An integrator that does not exist is refused, listing the ones that do.
     let e = run(&["render", cornell.to_str().unwrap(), "--integrator", "photon", "-o", out]);
-    assert!(e.contains("'photon'") && e.contains("[possible values: path]"), "{e}");
+    assert!(e.contains("'photon'") && e.contains("[possible values: path, bdpt]"), "{e}");
+    // A bidirectional option without the bidirectional integrator is refused, naming both.
+    let e =
+        run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "--bdpt-strategy", "2,2", "-o", out]);
+    assert!(e.contains("--bdpt-strategy") && e.contains("--integrator bdpt"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
