@@ -153,6 +153,79 @@ fn bad_input_gets_a_clear_error() {
 }
 
 #[test]
+fn bdpt_strategies_are_written_one_exr_each_and_sum_to_the_render() {
+    let dir = temp_dir("strategies");
+    let (exr, strategies) = (dir.join("bdpt.exr"), dir.join("strategies"));
+    let scene = common::scene("cornell-box.gltf");
+    let out = pathlight()
+        .args(["render", scene.to_str().unwrap(), "--backend", "cpu", "--integrator", "bdpt"])
+        .args(["--spp", "4", "--width", "16", "--max-depth", "2", "-o"])
+        .arg(&exr)
+        .arg("--bdpt-strategies")
+        .arg(&strategies)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    // Depth ≤ 2: paths of 2 to 4 vertices, every strategy of those lengths but (1, 1).
+    let mut names: Vec<String> = std::fs::read_dir(&strategies)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "s0-t2.exr",
+            "s0-t3.exr",
+            "s0-t4.exr",
+            "s1-t2.exr",
+            "s1-t3.exr",
+            "s2-t1.exr",
+            "s2-t2.exr",
+            "s3-t1.exr"
+        ],
+        "{stderr}"
+    );
+    let image = pathlight::film::read_exr(&exr).unwrap();
+    let mut sum = vec![0.0f64; image.width * image.height * 3];
+    for name in &names {
+        let part = pathlight::film::read_exr(&strategies.join(name)).unwrap();
+        assert_eq!((part.width, part.height), (image.width, image.height), "{name}");
+        for (c, channel) in ["R", "G", "B"].iter().enumerate() {
+            for (i, v) in part.channels[*channel].iter().enumerate() {
+                sum[3 * i + c] += *v as f64;
+            }
+        }
+    }
+    for (c, channel) in ["R", "G", "B"].iter().enumerate() {
+        for (i, v) in image.channels[*channel].iter().enumerate() {
+            // Both are sums of the same f32 contributions in another order: a few ulps of
+            // the pixel's value.
+            let s = sum[3 * i + c];
+            assert!(
+                (s - *v as f64).abs() <= 1e-5 * (1.0 + s.abs()),
+                "pixel {i} {channel}: strategies sum to {s}, the render is {v}"
+            );
+        }
+    }
+    // Asked of the path tracer, the option is refused.
+    let out = pathlight()
+        .args(["render", scene.to_str().unwrap(), "--backend", "cpu", "--spp", "1", "--width", "8", "-o"])
+        .arg(&exr)
+        .arg("--bdpt-strategies")
+        .arg(&strategies)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("--bdpt-strategies") && stderr.contains("--integrator bdpt"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn auto_backend_prefers_hardware_and_says_why_it_does_not() {
     let dir = temp_dir("auto");
     let exr = dir.join("g.exr");

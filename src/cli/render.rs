@@ -55,6 +55,11 @@ pub struct RenderArgs {
     /// 127.0.0.1:14158); a tev that is not running is a warning, not a failed render.
     #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "HOST:PORT")]
     tev: Option<String>,
+    /// With --integrator bdpt: also write each strategy's weighted contribution to
+    /// DIR/s{S}-t{T}.exr (S light and T camera vertices; the images sum to the render),
+    /// as pbrt-v4's --write-bdpt-strategies does, for seeing which strategy carries what.
+    #[arg(long, value_name = "DIR")]
+    bdpt_strategies: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -122,6 +127,7 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
     }
     let mut options = args.common.session_options(args.spp);
     options.samples = samples;
+    options.record_strategies = args.bdpt_strategies.is_some();
     let mut session = Session::open(&options)?;
     for w in &session.warnings {
         eprintln!("warning: {}: {w}", args.common.scene.display());
@@ -204,5 +210,31 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
             pathlight::integrator::bdpt::BDPT_MAX_VERTICES
         );
     }
+    if let Some(dir) = &args.bdpt_strategies {
+        write_strategy_images(&mut session, dir, width as usize, height as usize)?;
+    }
+    Ok(())
+}
+
+/// `--bdpt-strategies DIR`: one EXR per strategy that contributed, named by its (s, t).
+fn write_strategy_images(
+    session: &mut Session,
+    dir: &std::path::Path,
+    width: usize,
+    height: usize,
+) -> Result<(), Error> {
+    let images = session.strategy_images()?.ok_or_else(|| {
+        Error::Settings(format!(
+            "--bdpt-strategies: the {} backend recorded no strategies",
+            session.backend_name()
+        ))
+    })?;
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::output(dir, format!("cannot create the strategies' folder: {e}")))?;
+    for ((s, t), image) in &images {
+        let path = dir.join(format!("s{s}-t{t}.exr"));
+        pathlight::film::write_rgb_exr(width, height, image, &path)?;
+    }
+    eprintln!("wrote {} strategy image(s) to {}", images.len(), dir.display());
     Ok(())
 }

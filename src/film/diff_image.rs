@@ -2,9 +2,8 @@
 
 use std::path::Path;
 
-use exr::prelude::*;
-
 use super::compare::CompareReport;
+use super::exr_io::write_rgb_exr;
 use super::image::LinearImage;
 use super::write_atomically;
 use crate::error::{Error, Result};
@@ -63,22 +62,6 @@ pub fn write_zmap_exr(report: &CompareReport, path: &Path) -> Result<()> {
         .stat
         .as_ref()
         .ok_or_else(|| Error::output(path, "a z-map needs per-pixel variance in at least one image"))?;
-    let plane = |c: usize| FlatSamples::F32(stat.pixel_z.iter().map(|z| z[c]).collect());
-    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
-        AnyChannel::new("R", plane(0)),
-        AnyChannel::new("G", plane(1)),
-        AnyChannel::new("B", plane(2)),
-    ]));
-    let layer = Layer::new(
-        (report.width, report.height),
-        LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
-        channels,
-    );
-    write_atomically(path, |tmp| {
-        Image::from_layer(layer)
-            .write()
-            .to_file(tmp)
-            .map_err(|e| Error::output(path, format!("cannot write EXR: {e}")))
-    })
+    let z: Vec<glam::Vec3> = stat.pixel_z.iter().map(|z| glam::Vec3::from(*z)).collect();
+    write_rgb_exr(report.width, report.height, &z, path)
 }

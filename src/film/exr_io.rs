@@ -65,6 +65,28 @@ impl RenderMetadata {
     }
 }
 
+/// Writes a plain linear RGB image (channels `R`, `G`, `B`, f32, no variance): for images
+/// that are not a film's mean, such as a comparison's z-scores or one BDPT strategy's
+/// contribution.
+pub fn write_rgb_exr(width: usize, height: usize, rgb: &[glam::Vec3], path: &Path) -> Result<()> {
+    if rgb.len() != width * height {
+        return Err(Error::output(path, format!("{} pixels for a {width}×{height} image", rgb.len())));
+    }
+    let plane = |c: usize| FlatSamples::F32(rgb.iter().map(|v| v[c]).collect());
+    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+        AnyChannel::new("R", plane(0)),
+        AnyChannel::new("G", plane(1)),
+        AnyChannel::new("B", plane(2)),
+    ]));
+    let layer = Layer::new((width, height), LayerAttributes::default(), Encoding::FAST_LOSSLESS, channels);
+    write_atomically(path, |tmp| {
+        Image::from_layer(layer)
+            .write()
+            .to_file(tmp)
+            .map_err(|e| Error::output(path, format!("cannot write EXR: {e}")))
+    })
+}
+
 pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> {
     let size = (film.width as usize, film.height as usize);
     let mean = film.mean();

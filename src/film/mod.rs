@@ -18,7 +18,7 @@ use glam::Vec3;
 pub use compare::{compare_images, CompareOptions, CompareReport};
 pub use convergence::{convergence_csv, convergence_json, error_against, predicted_relmse, ConvergenceRow};
 pub use diff_image::{write_diff_png, write_zmap_exr};
-pub use exr_io::{read_exr, write_exr, ExrImage, RenderMetadata, PREDICTED_RELMSE_ATTRIBUTE};
+pub use exr_io::{read_exr, write_exr, write_rgb_exr, ExrImage, RenderMetadata, PREDICTED_RELMSE_ATTRIBUTE};
 pub use image::LinearImage;
 pub use merge::{merge_files, merge_parts, MergeReport};
 pub use png_io::write_png;
