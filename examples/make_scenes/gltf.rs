@@ -214,6 +214,39 @@ impl Mesh {
         self.indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
     }
 
+    /// Adds a triangle, wound so its front faces `toward`.
+    pub(crate) fn triangle(&mut self, corners: [[f64; 3]; 3], toward: [f64; 3]) {
+        let n = cross(sub(corners[1], corners[0]), sub(corners[2], corners[0]));
+        let center = [0, 1, 2].map(|k| corners.iter().map(|c| c[k]).sum::<f64>() / 3.0);
+        let c =
+            if dot(n, sub(toward, center)) >= 0.0 { corners } else { [corners[2], corners[1], corners[0]] };
+        let base = self.positions.len() as u32;
+        self.positions.extend(c.iter().map(|p| f32x3(*p)));
+        self.indices.extend([base, base + 1, base + 2]);
+    }
+
+    /// An axis-aligned box from `lo` to `hi`, faces outward.
+    pub(crate) fn cuboid(&mut self, lo: [f64; 3], hi: [f64; 3]) {
+        let c = [0, 1, 2].map(|k| (lo[k] + hi[k]) / 2.0);
+        let p = |x: usize, y: usize, z: usize| [[lo[0], hi[0]][x], [lo[1], hi[1]][y], [lo[2], hi[2]][z]];
+        for axis in 0..3 {
+            for side in 0..2 {
+                // The four corners of the face where coordinate `axis` is at `side`.
+                let corner = |a: usize, b: usize| {
+                    let mut i = [0; 3];
+                    i[axis] = side;
+                    i[(axis + 1) % 3] = a;
+                    i[(axis + 2) % 3] = b;
+                    p(i[0], i[1], i[2])
+                };
+                let q = [corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)];
+                let mut away = c;
+                away[axis] = [lo[axis], hi[axis]][side] * 2.0 - c[axis];
+                self.quad(q, away);
+            }
+        }
+    }
+
     /// A geodesic sphere: an icosahedron subdivided `level` times, projected onto the
     /// sphere. Faces point outward, or inward with `inward`; smooth normals if `smooth`.
     pub(crate) fn icosphere(center: [f64; 3], radius: f64, level: u32, inward: bool, smooth: bool) -> Mesh {
