@@ -101,6 +101,39 @@ fn scenes_the_light_tracer_cannot_take_are_path_traced() {
 }
 
 #[test]
+fn behind_a_glass_pane_filling_the_view_nothing_is_light_traced() {
+    use pathlight::integrator::delta_view::camera_sees_only_delta_surfaces;
+    // Every camera ray meets the pane first: no light path can be joined to the camera, so
+    // the light tracer is skipped (its partition gives it only paths whose first vertex is
+    // non-delta, and there are none).
+    let path = common::root().join("scenes/hard/cornell-spheres-behind-glass.gltf");
+    let scene = common::flat_scene(&path, 8, 8);
+    assert!(camera_sees_only_delta_surfaces(&scene, &scene.camera));
+    assert!(!CpuBackend::new(&scene, &settings(8, 1, 0, None, true)).light_traces_caustics());
+    // Without the pane, or with a pane that leaves a sliver of the view uncovered, the
+    // walls are seen directly and the light tracer runs.
+    let open = common::flat_scene(&common::scene("cornell-spheres.gltf"), 8, 8);
+    assert!(!camera_sees_only_delta_surfaces(&open, &open.camera));
+    assert!(CpuBackend::new(&open, &settings(8, 1, 0, None, true)).light_traces_caustics());
+    let (mut loaded, _) = pathlight::scene::load(&path).unwrap();
+    let pane = loaded.materials.iter().position(|m| m.name == "thin glass pane").unwrap() as u32;
+    // The pane spans x from -0.2 to 0.8 at z = -0.7, 0.1 in front of the eye at x = 0.278,
+    // where the view spans 0.278 ± 0.0357 (tan of half the 39.3° field of view, × 0.1).
+    // Moved 0.49 to the left its right edge is at 0.31: the view's last 0.004 (6% of its
+    // width) sees the walls past it.
+    for (tri, material) in loaded.positions.chunks_exact_mut(3).zip(&loaded.triangle_materials) {
+        if *material == pane {
+            for p in tri {
+                p.x -= 0.49;
+            }
+        }
+    }
+    let view = pathlight::scene::ViewSettings { camera: None, aspect: 1.0 };
+    let gap = FlatScene::build(&loaded, &view).unwrap();
+    assert!(!camera_sees_only_delta_surfaces(&gap, &gap.camera), "the pane leaves a sliver of the view open");
+}
+
+#[test]
 fn row_bands_give_the_same_film_as_whole_passes() {
     // The viewer renders one sample index band by band: each band must take the same light
     // tracer pass as a whole-image render does.
@@ -179,6 +212,7 @@ fn the_gpu_light_traces_exactly_the_scenes_the_cpu_does() {
         ("glossy-metal.gltf", true),
         ("cornell-spheres.gltf", false),
         ("cornell-spheres.gltf", true),
+        ("hard/cornell-spheres-behind-glass.gltf", true),
     ] {
         let scene = common::flat_scene(&common::scene(name), 8, 8);
         let s = settings(8, 1, 0, None, light_tracing);

@@ -124,6 +124,78 @@ fn furnace(path: &Path, albedo: f64) {
     );
 }
 
+/// A room lit only by a lamp inside a shade facing the ceiling: a small disk emitter at the
+/// bottom of a deep, narrow cylindrical shade on a floor lamp. Its light leaves upward in a
+/// narrow cone, lights a spot on the ceiling, and reaches everything the camera sees only
+/// from there. A path tracer has to find that spot by chance from each wall point (its light
+/// samples are shadowed by the shade); light subpaths start there at once. The setting of
+/// issue 43's BDPT goal, all Lambertian so that Mitsuba 3 can render it too.
+fn lamp_shade_room(path: &Path) {
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white walls", [0.75, 0.75, 0.72]));
+    let warm = g.material(lambert("warm wall", [0.7, 0.45, 0.3]));
+    let floor_m = g.material(lambert("floor", [0.45, 0.38, 0.3]));
+    let dark = g.material(lambert("lamp and furniture", [0.3, 0.3, 0.32]));
+    let lamp = g.material(emitter("lamp", [600.0, 500.0, 360.0], 0.0));
+    let (x0, x1, y1, z0, z1) = (-2.5, 2.5, 2.6, -2.5, 2.5);
+    let inside = [0.0, 1.3, 0.0];
+    let mut walls = Mesh::default();
+    walls.quad([[x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1]], inside);
+    walls.quad([[x0, 0.0, z0], [x1, 0.0, z0], [x1, y1, z0], [x0, y1, z0]], inside);
+    walls.quad([[x1, 0.0, z0], [x1, 0.0, z1], [x1, y1, z1], [x1, y1, z0]], inside);
+    walls.quad([[x0, 0.0, z1], [x1, 0.0, z1], [x1, y1, z1], [x0, y1, z1]], inside);
+    g.mesh("walls and ceiling", &walls, white);
+    let mut left = Mesh::default();
+    left.quad([[x0, 0.0, z0], [x0, 0.0, z1], [x0, y1, z1], [x0, y1, z0]], inside);
+    g.mesh("warm wall", &left, warm);
+    let mut floor = Mesh::default();
+    floor.quad([[x0, 0.0, z0], [x1, 0.0, z0], [x1, 0.0, z1], [x0, 0.0, z1]], inside);
+    g.mesh("floor", &floor, floor_m);
+    // A cabinet and a low table, for shadows; the floor lamp: a base, a pole, and a
+    // 12-sided shade of radius 0.15 from y = 1.2 to 1.8, closed below, open above.
+    let mut furniture = Mesh::default();
+    furniture.cuboid([1.2, 0.0, -2.5], [2.3, 1.1, -1.9]);
+    furniture.cuboid([-0.6, 0.0, -0.9], [0.6, 0.45, -0.3]);
+    let (cx, cz) = (-1.3, -1.4);
+    furniture.cuboid([cx - 0.2, 0.0, cz - 0.2], [cx + 0.2, 0.04, cz + 0.2]);
+    furniture.cuboid([cx - 0.02, 0.04, cz - 0.02], [cx + 0.02, 1.2, cz + 0.02]);
+    let (r, y_lo, y_hi, sides) = (0.15, 1.2, 1.8, 12);
+    let at = |k: usize, radius: f64, y: f64| {
+        let a = 2.0 * PI * k as f64 / sides as f64;
+        [cx + radius * a.cos(), y, cz + radius * a.sin()]
+    };
+    for k in 0..sides {
+        // Outside and inside of the shade's wall: two faces, each one-sided toward its side.
+        let q = [at(k, r, y_lo), at(k + 1, r, y_lo), at(k + 1, r, y_hi), at(k, r, y_hi)];
+        let mid = at(k, r, 1.5);
+        let out = [cx + 2.0 * (mid[0] - cx), 1.5, cz + 2.0 * (mid[2] - cz)];
+        furniture.quad(q, out);
+        furniture.triangle([at(k, r, y_lo), at(k + 1, r, y_lo), [cx, y_lo, cz]], [cx, 0.0, cz]);
+    }
+    g.mesh("furniture and lamp", &furniture, dark);
+    let mut shade_inside = Mesh::default();
+    for k in 0..sides {
+        let q = [at(k, r, y_lo), at(k + 1, r, y_lo), at(k + 1, r, y_hi), at(k, r, y_hi)];
+        shade_inside.quad(q, [cx, 1.5, cz]);
+        shade_inside.triangle(
+            [at(k, r, y_lo + 0.001), at(k + 1, r, y_lo + 0.001), [cx, y_lo + 0.001, cz]],
+            [cx, 2.0, cz],
+        );
+    }
+    g.mesh("inside of the shade", &shade_inside, white);
+    // The bulb: a disk of radius 0.1 facing up, 5 cm above the shade's floor.
+    let mut bulb = Mesh::default();
+    for k in 0..sides {
+        bulb.triangle([at(k, 0.1, 1.25), at(k + 1, 0.1, 1.25), [cx, 1.25, cz]], [cx, 2.0, cz]);
+    }
+    g.mesh("bulb", &bulb, lamp);
+    g.perspective_camera("camera", 65f64.to_radians(), [0.3, 1.3, 2.3], [-0.06, 0.0, 0.0, 0.998_198]);
+    g.write(
+        path,
+        "A room lit only by a lamp inside a shade facing the ceiling: the light reaches everything the camera sees by way of a spot on the ceiling",
+    );
+}
+
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     std::fs::create_dir_all(dir.join("hard")).unwrap();
@@ -171,6 +243,7 @@ fn main() {
         "The Cornell box (measured geometry), diffuse walls, area light under the ceiling",
     );
 
+    lamp_shade_room(&dir.join("lamp-shade-room.gltf"));
     furnace(&dir.join("furnace-0.5.gltf"), 0.5);
     furnace(&dir.join("furnace-0.9.gltf"), 0.9);
 
@@ -219,6 +292,31 @@ fn main() {
     g.write(
         &dir.join("cornell-spheres.gltf"),
         "A mirror sphere and a clear glass sphere in the Cornell room (the speed-against-error benchmark's glass scene)",
+    );
+
+    // The same behind a thin glass pane filling the camera's view (issue 43): every
+    // camera ray meets the pane first, so nothing the light tracer (or BDPT's t = 1)
+    // joins to the camera can reach it, and both skip that work; the image is the
+    // glass scene's, seen through a pane.
+    let mut g = Gltf::default();
+    cornell(&mut g, false);
+    let mirror = g.material(metal("mirror (reflectance 1)", [1.0, 1.0, 1.0], 0.0));
+    let clear = g.material(json!({"name": "clear glass (solid, index 1.5)",
+        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
+            "KHR_materials_volume": {"thicknessFactor": 0.1}}}));
+    let pane_m = g.material(glass("thin glass pane", 0.0, None));
+    g.mesh("mirror sphere", &Mesh::icosphere([0.39, 0.1, 0.37], 0.1, 4, false, true), mirror);
+    g.mesh("glass sphere", &Mesh::icosphere([0.17, 0.1, 0.2], 0.1, 4, false, true), clear);
+    let mut pane = Mesh::default();
+    pane.quad(
+        [[-0.2, -0.2, -0.7], [0.8, -0.2, -0.7], [0.8, 0.8, -0.7], [-0.2, 0.8, -0.7]],
+        [0.278, 0.273, -0.8],
+    );
+    g.mesh("pane", &pane, pane_m);
+    g.write(
+        &dir.join("hard/cornell-spheres-behind-glass.gltf"),
+        "The glass scene (cornell-spheres) seen through a thin glass pane that fills the camera's view",
     );
 
     // Rough glass: the same objects frosted.

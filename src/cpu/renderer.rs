@@ -4,6 +4,7 @@ use rayon::prelude::*;
 
 use crate::film::{film_add_sample, Film};
 use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, StrategyImages, Subpaths};
+use crate::integrator::delta_view::camera_sees_only_delta_surfaces;
 use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
 use crate::integrator::{path::radiance, Integrator, IntegratorSettings};
@@ -48,6 +49,10 @@ pub struct CpuBackend<'a> {
     /// The settings' and the scene's half of [`Self::light_traces_caustics`], decided once:
     /// `scene_supports_light_tracing` reads every triangle.
     scene_light_traced: bool,
+    /// The camera sees only delta surfaces, so no light vertex can be joined to it
+    /// ([`camera_sees_only_delta_surfaces`]); decided per camera where light tracing or
+    /// BDPT would make such joins.
+    camera_sees_only_delta: bool,
     /// Bidirectional path tracing: the sample values of every pixel for the sample index
     /// last rendered (its splats land anywhere in the image, so a pass is rendered whole
     /// before any band of it is added).
@@ -85,9 +90,12 @@ impl<'a> CpuBackend<'a> {
     }
 
     fn with_scene(scene: SceneRef<'a>, settings: &RenderSettings) -> CpuBackend<'a> {
+        let scene_light_traced = settings.light_tracing && scene_supports_light_tracing(&scene);
+        let joins_camera = scene_light_traced || settings.integrator == Integrator::Bdpt;
         CpuBackend {
             camera: scene.camera,
-            scene_light_traced: settings.light_tracing && scene_supports_light_tracing(&scene),
+            scene_light_traced,
+            camera_sees_only_delta: joins_camera && camera_sees_only_delta_surfaces(&scene, &scene.camera),
             scene,
             settings: settings.clone(),
             film: Film::new(settings.width, settings.height),
@@ -111,7 +119,7 @@ impl<'a> CpuBackend<'a> {
     /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
     /// the scene and camera allow it)?
     pub fn light_traces_caustics(&self) -> bool {
-        self.scene_light_traced && camera_supports_light_tracing(&self.camera)
+        self.scene_light_traced && camera_supports_light_tracing(&self.camera) && !self.camera_sees_only_delta
     }
 
     fn integrator_settings(&self) -> IntegratorSettings {
@@ -122,6 +130,7 @@ impl<'a> CpuBackend<'a> {
             splits: s.splits,
             caustics_by_light_tracing: self.light_traces_caustics(),
             only_strategy: s.bdpt_strategy,
+            camera_connections: !self.camera_sees_only_delta,
         }
     }
 }
@@ -325,6 +334,8 @@ impl Backend for CpuBackend<'_> {
 
     fn set_camera(&mut self, camera: &Camera) -> crate::Result<()> {
         self.camera = *camera;
+        let joins_camera = self.scene_light_traced || self.settings.integrator == Integrator::Bdpt;
+        self.camera_sees_only_delta = joins_camera && camera_sees_only_delta_surfaces(&self.scene, camera);
         self.caustic_pass = None;
         self.bdpt_pass = None;
         Ok(())

@@ -58,6 +58,11 @@ pub struct GpuBackend {
     caustics_kernel: Option<Arc<wgpu::ComputePipeline>>,
     /// The sample index whose light-traced image `caustics` holds.
     caustic_pass: Option<u32>,
+    /// The camera sees only delta surfaces: the light tracer's joins to it cannot
+    /// contribute (`crate::integrator::delta_view`). Decided for the scene's camera; a
+    /// camera set later keeps the light tracer (the backend holds no triangles to decide
+    /// it again).
+    camera_sees_only_delta: bool,
 }
 
 impl GpuBackend {
@@ -261,6 +266,8 @@ impl GpuBackend {
             seconds_per_sample: None,
             upload_seconds: start.elapsed().as_secs_f64(),
             caustics,
+            camera_sees_only_delta: caustics_kernel.is_some()
+                && crate::integrator::delta_view::camera_sees_only_delta_surfaces(scene, &scene.camera),
             caustics_kernel,
             caustic_pass: None,
             ctx,
@@ -270,7 +277,9 @@ impl GpuBackend {
     /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
     /// the scene and camera allow it)? As `CpuBackend::light_traces_caustics`.
     pub fn light_traces_caustics(&self) -> bool {
-        self.caustics_kernel.is_some() && crate::integrator::camera_supports_light_tracing(&self.camera)
+        self.caustics_kernel.is_some()
+            && crate::integrator::camera_supports_light_tracing(&self.camera)
+            && !self.camera_sees_only_delta
     }
 
     /// Samples' worth of rays one sample index may trace per pixel, for the bound on the
@@ -575,6 +584,7 @@ impl Backend for GpuBackend {
 
     fn set_camera(&mut self, camera: &crate::scene::layout::Camera) -> Result<()> {
         self.camera = *camera;
+        self.camera_sees_only_delta = false;
         self.caustic_pass = None;
         self.ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(camera));
         Ok(())

@@ -313,7 +313,7 @@ impl<'a> BdptContext<'a> {
         width: u32,
         height: u32,
     ) -> BdptContext<'a> {
-        let projection = (camera.projection == PROJECTION_PERSPECTIVE)
+        let projection = (camera.projection == PROJECTION_PERSPECTIVE && settings.camera_connections)
             .then(|| PinholeProjection::new(camera, width, height));
         BdptContext { scene, camera, projection, settings, only_strategy: settings.only_strategy }
     }

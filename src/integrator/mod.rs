@@ -22,6 +22,7 @@
 //! [`crate::RenderSettings::integrator`].
 
 pub mod bdpt;
+pub mod delta_view;
 pub mod interaction;
 pub mod light_tracing;
 pub mod mis;
@@ -109,6 +110,10 @@ pub struct IntegratorSettings {
     /// Bidirectional path tracing: strategy (s, t) alone, unweighted
     /// (`crate::RenderSettings::bdpt_strategy`).
     pub only_strategy: Option<(u32, u32)>,
+    /// Bidirectional path tracing joins light vertices to the camera (t = 1): false where
+    /// the camera sees only delta surfaces and no such join can contribute
+    /// ([`delta_view`]).
+    pub camera_connections: bool,
 }
 
 impl Default for IntegratorSettings {
@@ -119,6 +124,7 @@ impl Default for IntegratorSettings {
             splits: 1,
             caustics_by_light_tracing: false,
             only_strategy: None,
+            camera_connections: true,
         }
     }
 }
