@@ -3,7 +3,8 @@
 
     python3 bench/plot_peer.py OUT SCENE...
 
-reads OUT/<scene>/{pathlight-cpu,pathlight-cpu-independent,pathlight-gpu,mitsuba,mitsuba-ldsampler}.csv and writes OUT/peer.svg (one
+reads OUT/<scene>/{pathlight-cpu,pathlight-cpu-independent,pathlight-cpu-bdpt,pathlight-gpu,mitsuba,
+mitsuba-ldsampler,pbrt-bdpt}.csv (those present) and writes OUT/peer.svg (one
 panel per scene). An unbiased renderer's relMSE falls as 1/t: a line of slope -1, shown
 dotted through each series' last point; a series below another at equal time is ahead.
 """
@@ -20,6 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 SERIES = [
     ("pathlight-cpu.csv", "pathlight CPU backend", "tab:blue", "o-"),
     ("pathlight-cpu-independent.csv", "pathlight CPU backend, independent sampler", "tab:blue", "x:"),
+    ("pathlight-cpu-bdpt.csv", "pathlight CPU backend, bdpt", "tab:purple", "o-"),
     ("pathlight-gpu.csv", "pathlight GPU backend (this machine)", "tab:orange", "o-"),
     ("mitsuba.csv", "Mitsuba 3", "tab:green", "o-"),
     ("mitsuba-ldsampler.csv", "Mitsuba 3, ldsampler", "tab:green", "x:"),

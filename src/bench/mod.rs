@@ -17,6 +17,7 @@ use crate::{Backend, RenderSettings};
 #[derive(Clone, Debug)]
 pub struct BenchRow {
     pub scene: String,
+    pub integrator: crate::integrator::Integrator,
     pub backend: String,
     /// Which kernel (GPU): the scene's specialised one or the general one.
     pub kernel: String,
@@ -60,13 +61,14 @@ impl PrepRow {
 
 impl BenchRow {
     /// The markdown table's header lines for [`BenchRow::markdown`].
-    pub const MARKDOWN_HEADER: &'static str = "| scene | backend | kernel | kernel build s | spp | seconds | Msamples/s | Mrays/s |\n|---|---|---|---:|---:|---:|---:|---:|";
+    pub const MARKDOWN_HEADER: &'static str = "| scene | integrator | backend | kernel | kernel build s | spp | seconds | Msamples/s | Mrays/s |\n|---|---|---|---|---:|---:|---:|---:|---:|";
 
     /// This row as a line of the markdown table.
     pub fn markdown(&self) -> String {
         format!(
-            "| {} | {} | {} | {} | {} | {:.2} | {:.3} | {:.2} |",
+            "| {} | {} | {} | {} | {} | {} | {:.2} | {:.3} | {:.2} |",
             self.scene,
+            self.integrator,
             self.backend,
             self.kernel,
             self.kernel_build_seconds.map(|s| format!("{s:.3}")).unwrap_or_else(|| "-".into()),
@@ -212,6 +214,7 @@ pub fn bench_scene(
         |backend: String, kernel: &str, build: Option<f64>, (seconds, samples, rays): (f64, u64, u64)| {
             rows.push(BenchRow {
                 scene: name.into(),
+                integrator: settings.integrator,
                 backend,
                 kernel: kernel.into(),
                 kernel_build_seconds: build,

@@ -25,7 +25,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
 
-pub use super::series::{markdown, Series};
+pub use super::series::{integrator_markdown, markdown, Series, SeriesKey};
 use super::BenchScene;
 use crate::cpu::CpuBackend;
 use crate::error::{Error, Result};
@@ -34,6 +34,7 @@ use crate::film::{
     RenderMetadata,
 };
 use crate::gpu::{GpuBackend, GpuContext};
+use crate::integrator::Integrator;
 use crate::sampling::SamplerKind;
 use crate::scene::{FlatScene, ViewSettings};
 use crate::{render_progressive_with, Backend, RenderSettings};
@@ -64,6 +65,13 @@ pub struct PeerOptions {
     pub reuse_series: bool,
     pub cpu: bool,
     pub gpu: Option<Arc<GpuContext>>,
+    /// pathlight's integrators, a series each on every backend that has it (`bench
+    /// --integrator path,bdpt`); the path tracer's also with independent samples on the CPU.
+    pub integrators: Vec<Integrator>,
+    /// The integrator that renders a reference made here (`--reference-integrator`): the
+    /// one that converges fastest on the scene. A scene lit indirectly converges many times
+    /// faster under BDPT.
+    pub reference_integrator: Integrator,
 }
 
 /// Everything measured on one scene.
@@ -151,9 +159,10 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
         if (image.width, image.height) == (options.width as usize, options.height as usize) {
             let spp = image.spp.map_or("?".into(), |n| n.to_string());
             let attributes = crate::film::read_exr(&path)?.attributes;
-            let backend = attributes.get("pathlight.backend").cloned().unwrap_or_else(|| "?".into());
+            let attribute = |name: &str| attributes.get(name).cloned().unwrap_or_else(|| "?".into());
+            let (backend, integrator) = (attribute("pathlight.backend"), attribute("pathlight.integrator"));
             let noise = ReferenceNoise::of_file(&image, &attributes);
-            let note = format!("{} ({spp} spp, {backend}, reused)", path.display());
+            let note = format!("{} ({spp} spp, {integrator}, {backend}, reused)", path.display());
             return Ok(Reference { image, note, noise });
         }
     }
@@ -163,8 +172,10 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
     // glass scene's several-fold, `bench/history/light-tracing.md`). Each camera sample then costs more, so one spp of reference
     // is worth more. Whether the estimators converge to the right image is for the z-test
     // against the peer's to say.
-    let hardware_gpu = options.gpu.as_ref().filter(|ctx| ctx.is_hardware());
+    let integrator = options.reference_integrator;
+    let hardware_gpu = options.gpu.as_ref().filter(|ctx| ctx.is_hardware() && integrator.has_gpu_kernel());
     let settings = RenderSettings {
+        integrator,
         width: options.width,
         height: options.height,
         spp: options.reference_spp,
@@ -197,7 +208,12 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
     let image = LinearImage::from_film(&film);
     // A render's own image knows its replicates: the measured figure.
     let noise = predicted_relmse(&image).map(|relmse| ReferenceNoise { relmse, measured: true });
-    let note = format!("{} ({} spp, {}, {seconds:.0} s)", path.display(), settings.spp, backend.name());
+    let note = format!(
+        "{} ({} spp, {integrator}, {}, {seconds:.0} s)",
+        path.display(),
+        settings.spp,
+        backend.name()
+    );
     Ok(Reference { image, note, noise })
 }
 
@@ -218,7 +234,7 @@ fn pathlight_series(backend: &mut dyn Backend, reference: &LinearImage, seconds:
         points.push((done, t, relmse));
         Ok(t >= seconds)
     })?;
-    Ok(Series { label: format!("pathlight {}", backend.name()), points })
+    Ok(Series { label: format!("pathlight {}", backend.name()), points, key: None })
 }
 
 /// Runs the peer's script on `scene` and reads back its series and converged image.
@@ -341,7 +357,7 @@ fn read_series(path: &Path, label: String) -> Result<Series> {
         };
         points.push((parse(spp)? as u32, parse(seconds)?, parse(relmse)?));
     }
-    Ok(Series { label, points })
+    Ok(Series { label, points, key: None })
 }
 
 /// The scene flattened for the benchmark's image size (its own camera).
@@ -354,19 +370,43 @@ pub fn flat_scene(scene: &BenchScene, options: &PeerOptions) -> Result<Arc<FlatS
 /// already there.
 fn backend_series(
     backend: &mut dyn Backend,
-    label_suffix: &str,
+    settings: &RenderSettings,
     file: &Path,
     reference: &LinearImage,
     options: &PeerOptions,
 ) -> Result<Series> {
-    let label = format!("pathlight {}{label_suffix}", backend.name());
-    if options.reuse_series {
-        return read_series(file, label);
+    let key =
+        SeriesKey { backend: backend.name(), integrator: settings.integrator, sampler: settings.sampler };
+    let mut label = format!("pathlight {}", key.backend);
+    if key.integrator != Integrator::Path {
+        label += &format!(", {}", key.integrator);
     }
-    let mut series = pathlight_series(backend, reference, options.seconds)?;
-    series.label = label;
-    std::fs::write(file, series.csv()).map_err(|e| Error::io(file, e))?;
+    if key.sampler != SamplerKind::default() {
+        label += &format!(", {} sampler", key.sampler.name());
+    }
+    let mut series = if options.reuse_series {
+        read_series(file, label)?
+    } else {
+        let mut series = pathlight_series(backend, reference, options.seconds)?;
+        series.label = label;
+        std::fs::write(file, series.csv()).map_err(|e| Error::io(file, e))?;
+        series
+    };
+    series.key = Some(key);
     Ok(series)
+}
+
+/// The CSV file of a pathlight series: `pathlight-<device>[-<integrator>][-<sampler>].csv`
+/// (the path tracer and the default sampler unnamed, as the files of earlier runs are).
+fn series_file(dir: &Path, device: &str, settings: &RenderSettings) -> PathBuf {
+    let mut name = format!("pathlight-{device}");
+    if settings.integrator != Integrator::Path {
+        name += &format!("-{}", settings.integrator);
+    }
+    if settings.sampler != SamplerKind::default() {
+        name += &format!("-{}", settings.sampler.name());
+    }
+    dir.join(name + ".csv")
 }
 
 /// Measures one scene: reference, pathlight's series on each backend, the peer's.
@@ -385,33 +425,28 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
     };
     let dir = options.out.join(&scene.name);
     let mut pathlight = Vec::new();
-    if options.cpu {
-        let mut backend = CpuBackend::shared(flat.clone(), &settings);
-        pathlight.push(backend_series(
-            &mut backend,
-            "",
-            &dir.join("pathlight-cpu.csv"),
-            &reference,
-            options,
-        )?);
-        // The same backend with independent random numbers: what the default Sobol sampler
-        // gains, in the same run.
-        let independent = RenderSettings { sampler: SamplerKind::Independent, ..settings.clone() };
-        let mut backend = CpuBackend::shared(flat.clone(), &independent);
-        let file = dir.join("pathlight-cpu-independent.csv");
-        pathlight.push(backend_series(&mut backend, ", independent sampler", &file, &reference, options)?);
-    }
-    if let Some(ctx) = &options.gpu {
-        let splits = crate::render::default_splits(crate::render::RenderDevice::of(Some(ctx)));
-        let gpu_settings = RenderSettings { splits, ..settings.clone() };
-        let mut backend = GpuBackend::new(ctx.clone(), &flat, &gpu_settings)?;
-        pathlight.push(backend_series(
-            &mut backend,
-            "",
-            &dir.join("pathlight-gpu.csv"),
-            &reference,
-            options,
-        )?);
+    for &integrator in &options.integrators {
+        let settings = RenderSettings { integrator, ..settings.clone() };
+        if options.cpu {
+            let mut backend = CpuBackend::shared(flat.clone(), &settings);
+            let file = series_file(&dir, "cpu", &settings);
+            pathlight.push(backend_series(&mut backend, &settings, &file, &reference, options)?);
+            if integrator == Integrator::Path {
+                // The same backend with independent random numbers: what the default Sobol
+                // sampler gains, in the same run.
+                let independent = RenderSettings { sampler: SamplerKind::Independent, ..settings.clone() };
+                let mut backend = CpuBackend::shared(flat.clone(), &independent);
+                let file = series_file(&dir, "cpu", &independent);
+                pathlight.push(backend_series(&mut backend, &independent, &file, &reference, options)?);
+            }
+        }
+        if let Some(ctx) = options.gpu.as_ref().filter(|_| integrator.has_gpu_kernel()) {
+            let splits = crate::render::default_splits(crate::render::RenderDevice::of(Some(ctx)));
+            let gpu_settings = RenderSettings { splits, ..settings.clone() };
+            let mut backend = GpuBackend::new(ctx.clone(), &flat, &gpu_settings)?;
+            let file = series_file(&dir, "gpu", &gpu_settings);
+            pathlight.push(backend_series(&mut backend, &gpu_settings, &file, &reference, options)?);
+        }
     }
     let (peer, agreement, peer_low_discrepancy) = if options.run_peer {
         let (peer, converged) =

@@ -3,12 +3,25 @@
 //! Carlo error falls as 1/t), and the peer benchmark's summary table built from them.
 
 use super::peer::PeerResult;
+use crate::integrator::Integrator;
+use crate::sampling::SamplerKind;
 
 /// One renderer's error against time: (spp, seconds, relMSE) at each checkpoint.
 #[derive(Clone, Debug)]
 pub struct Series {
     pub label: String,
     pub points: Vec<(u32, f64, f64)>,
+    /// What rendered it, for a pathlight series (`None` for a peer's).
+    pub key: Option<SeriesKey>,
+}
+
+/// A pathlight series' backend, integrator and sampler: the integrator table pairs series
+/// that differ in the integrator alone.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SeriesKey {
+    pub backend: String,
+    pub integrator: Integrator,
+    pub sampler: SamplerKind,
 }
 
 impl Series {
@@ -115,6 +128,44 @@ pub fn markdown(results: &[PeerResult]) -> String {
     s
 }
 
+/// pathlight's integrators against its path tracer, on each scene and backend: time to
+/// equal error and relMSE at equal time (issue 43's goals are read off this table). Each
+/// series that is not the path tracer's is paired with the path tracer's series of the same
+/// backend and sampler; `None` when no scene has such a pair.
+pub fn integrator_markdown(results: &[PeerResult]) -> Option<String> {
+    let mut s = String::new();
+    s += "| scene | backend | integrator | vs path: time to equal error | relMSE compared | at equal time | relMSE path | relMSE integrator | path ÷ integrator at equal time |\n";
+    s += "|---|---|---|---:|---:|---:|---:|---:|---:|\n";
+    let mut rows = 0;
+    for r in results {
+        for p in &r.pathlight {
+            let Some(key) = p.key.as_ref().filter(|k| k.integrator != Integrator::Path) else { continue };
+            let path_key = SeriesKey { integrator: Integrator::Path, ..key.clone() };
+            let Some(path) = r.pathlight.iter().find(|q| q.key.as_ref() == Some(&path_key)) else { continue };
+            let error = p.last().zip(path.last()).map(|(a, b)| a.0.max(b.0));
+            let time = p.last().zip(path.last()).map(|(a, b)| a.1.min(b.1));
+            let e_path = time.and_then(|t| path.error_at_time(t));
+            let e_p = time.and_then(|t| p.error_at_time(t));
+            let g = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3e}"));
+            let x = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}×"));
+            s += &format!(
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                r.scene,
+                key.backend,
+                key.integrator,
+                x(speed_ratio(p, path)),
+                g(error),
+                time.map_or("-".into(), |t| format!("{t:.1} s")),
+                g(e_path),
+                g(e_p),
+                x(e_path.zip(e_p).map(|(a, b)| a / b)),
+            );
+            rows += 1;
+        }
+    }
+    (rows > 0).then_some(s)
+}
+
 /// How many times faster `a` reaches the lower error both series reached than `b` does
 /// (time to equal error, `b`'s time over `a`'s).
 fn speed_ratio(a: &Series, b: &Series) -> Option<f64> {
@@ -176,7 +227,7 @@ mod tests {
     use crate::bench::peer::ReferenceNoise;
 
     fn series(points: &[(u32, f64, f64)]) -> Series {
-        Series { label: "s".into(), points: points.to_vec() }
+        Series { label: "s".into(), points: points.to_vec(), key: None }
     }
 
     #[test]
@@ -222,5 +273,29 @@ mod tests {
         );
         assert!(noisy.contains("More than a tenth"), "{noisy}");
         assert_eq!(reference_noise_lines(&[result(None)]), "");
+    }
+
+    #[test]
+    fn integrators_are_compared_with_the_path_tracer_of_their_backend_and_sampler() {
+        let key =
+            |integrator| Some(SeriesKey { backend: "cpu".into(), integrator, sampler: SamplerKind::Sobol });
+        // relMSE 0.1/t for the path tracer, 0.01/t for BDPT: 10× at equal time and error.
+        let path = Series {
+            key: key(Integrator::Path),
+            ..series(&[(1, 1.0, 0.1), (2, 2.0, 0.05), (4, 4.0, 0.025)])
+        };
+        let bdpt = Series { key: key(Integrator::Bdpt), ..series(&[(1, 1.0, 0.01), (2, 2.0, 0.005)]) };
+        let other_sampler = Series {
+            key: Some(SeriesKey { sampler: SamplerKind::Independent, ..key(Integrator::Path).unwrap() }),
+            ..series(&[(1, 1.0, 0.2)])
+        };
+        let r = PeerResult { pathlight: vec![path.clone(), other_sampler, bdpt], ..result(None) };
+        let table = integrator_markdown(&[r]).unwrap();
+        let row = table.lines().find(|l| l.contains("| bdpt |")).unwrap();
+        assert!(row.starts_with("| box | cpu | bdpt | 10.00× |"), "{row}");
+        assert!(row.ends_with("| 2.0 s | 5.000e-2 | 5.000e-3 | 10.00× |"), "{row}");
+        assert_eq!(table.lines().filter(|l| l.starts_with("| box")).count(), 1, "{table}");
+        // No pair: no table.
+        assert!(integrator_markdown(&[PeerResult { pathlight: vec![path], ..result(None) }]).is_none());
     }
 }

@@ -27,9 +27,14 @@ pub struct BenchArgs {
     /// Timed samples per pixel (after one warm-up sample).
     #[arg(long, default_value_t = 8)]
     spp: u32,
-    /// The estimator measured (`render --integrator`).
-    #[arg(long, default_value = "path", value_parser = super::parse_integrator())]
-    integrator: Integrator,
+    /// The estimators measured (`render --integrator`), comma-separated: each gets its own
+    /// rows, and with --peer its own error series (compared with the path tracer's).
+    #[arg(long, default_value = "path", value_delimiter = ',', value_parser = super::parse_integrator())]
+    integrator: Vec<Integrator>,
+    /// With --peer: the integrator that renders a missing reference (the fastest to
+    /// converge on the scene; the z-test against the peer's converged image checks it).
+    #[arg(long, default_value = "path", value_parser = super::parse_integrator(), requires = "peer")]
+    reference_integrator: Integrator,
     /// Skip the CPU backend.
     #[arg(long)]
     no_cpu: bool,
@@ -111,7 +116,7 @@ pub fn run(args: BenchArgs) -> Result<(), Error> {
         args.width,
         args.height,
         args.spp,
-        args.integrator
+        args.integrator.iter().map(|i| i.name()).collect::<Vec<_>>().join(", ")
     );
     out!("{}", PrepRow::MARKDOWN_HEADER);
     let mut flats = Vec::new();
@@ -127,16 +132,20 @@ pub fn run(args: BenchArgs) -> Result<(), Error> {
         return Ok(());
     }
     out!("\n{}", BenchRow::MARKDOWN_HEADER);
-    let settings = RenderSettings {
-        integrator: args.integrator,
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        ..RenderSettings::default()
-    };
-    for (name, flat) in &flats {
-        for row in bench_scene(name, flat, &settings, gpu.as_ref(), !args.no_cpu)? {
-            out!("{}", row.markdown());
+    for &integrator in &args.integrator {
+        let settings = RenderSettings {
+            integrator,
+            width: args.width,
+            height: args.height,
+            spp: args.spp,
+            ..RenderSettings::default()
+        };
+        // Only the integrators with a GPU kernel are measured there.
+        let gpu = gpu.as_ref().filter(|_| integrator.has_gpu_kernel());
+        for (name, flat) in &flats {
+            for row in bench_scene(name, flat, &settings, gpu, !args.no_cpu)? {
+                out!("{}", row.markdown());
+            }
         }
     }
     Ok(())
@@ -147,12 +156,6 @@ pub fn run(args: BenchArgs) -> Result<(), Error> {
 fn run_peer(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) -> Result<(), Error> {
     if !(args.peer_seconds > 0.0 && args.peer_seconds.is_finite()) {
         return Err(Error::Settings("--peer-seconds must be positive and finite".into()));
-    }
-    if args.integrator != Integrator::Path {
-        return Err(Error::Settings(format!(
-            "--peer measures the path tracer against the peer's; --integrator {} is not supported there yet",
-            args.integrator
-        )));
     }
     let options = PeerOptions {
         width: args.width,
@@ -168,6 +171,8 @@ fn run_peer(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) -> Resul
         reuse_series: args.reuse_series,
         cpu: !args.no_cpu,
         gpu,
+        integrators: args.integrator.clone(),
+        reference_integrator: args.reference_integrator,
     };
     let scenes: Vec<BenchScene> =
         args.scenes.iter().map(|n| BenchScene::resolve(n, root, &args.assets)).collect();
@@ -197,7 +202,11 @@ fn run_peer(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) -> Resul
         }
         results.push(r);
     }
-    let table = peer::markdown(&results);
+    let mut table = peer::markdown(&results);
+    if let Some(integrators) = peer::integrator_markdown(&results) {
+        table +=
+            &format!("\nIntegrators against the path tracer, same backend and sampler:\n\n{integrators}");
+    }
     out!("\n{table}");
     let summary = args.out.join("summary.md");
     std::fs::write(&summary, &table).map_err(|e| Error::io(&summary, e))?;
