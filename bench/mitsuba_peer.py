@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Renders a pathlight benchmark scene with Mitsuba 3, the peer of `pathlight bench --peer`.
 
-The glTF is read here, independently of pathlight's loader (so a loader bug shows up as a
-failed z-test rather than being copied into both renders), and converted to a Mitsuba 3
-scene: the same triangles and vertex normals, the same camera and box pixel filter,
+The glTF is read by `gltf_scene.py`, independently of pathlight's loader (so a loader bug
+shows up as a failed z-test rather than being copied into both renders), and converted to a
+Mitsuba 3 scene: the same triangles and vertex normals, the same camera and box pixel filter,
 Mitsuba's own `path` integrator with its defaults (unlimited depth, roulette from depth 5)
 and its default `independent` sampler, or another with --sampler (`ldsampler`: Mitsuba's
 low-discrepancy (0,2)-sequence sampler, the counterpart of pathlight's default).
@@ -35,115 +35,19 @@ Needs `pip install mitsuba numpy`. The `llvm_ad_rgb` variant needs LLVM (Debian 
 """
 
 import argparse
-import base64
 import csv
 import glob
-import json
 import math
 import os
-import struct
 import sys
 import tempfile
 import time
 
 import numpy as np
 
+from gltf_scene import SceneError, camera_frame, read_gltf, triangle_meshes
+
 RELMSE_EPSILON = 1e-2  # the benchmark protocol's (and src/film/convergence.rs's) offset
-
-
-class SceneError(Exception):
-    pass
-
-
-# ---------------------------------------------------------------------------------------
-# glTF reading
-
-
-def read_gltf(path):
-    """(json, [buffer bytes]) of a .gltf or .glb."""
-    with open(path, "rb") as f:
-        data = f.read()
-    bin_chunk = None
-    if data[:4] == b"glTF":
-        _, _, length = struct.unpack_from("<III", data, 0)
-        offset = 12
-        doc = None
-        while offset < length:
-            chunk_length, chunk_type = struct.unpack_from("<II", data, offset)
-            chunk = data[offset + 8 : offset + 8 + chunk_length]
-            if chunk_type == 0x4E4F534A:
-                doc = json.loads(chunk.decode("utf-8"))
-            elif chunk_type == 0x004E4942:
-                bin_chunk = chunk
-            offset += 8 + chunk_length
-        if doc is None:
-            raise SceneError(f"{path}: a GLB without a JSON chunk")
-    else:
-        doc = json.loads(data.decode("utf-8"))
-    buffers = []
-    for i, b in enumerate(doc.get("buffers", [])):
-        uri = b.get("uri")
-        if uri is None:
-            if bin_chunk is None:
-                raise SceneError(f"{path}: buffer {i} has no uri and there is no GLB binary chunk")
-            buffers.append(bin_chunk)
-        elif uri.startswith("data:"):
-            buffers.append(base64.b64decode(uri.split(",", 1)[1]))
-        else:
-            with open(os.path.join(os.path.dirname(path), uri), "rb") as f:
-                buffers.append(f.read())
-    return doc, buffers
-
-
-COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
-DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
-
-
-def read_accessor(doc, buffers, index):
-    a = doc["accessors"][index]
-    if "sparse" in a:
-        raise SceneError(f"accessor {index}: sparse accessors are not converted")
-    n = COMPONENTS[a["type"]]
-    dtype = np.dtype(DTYPES[a["componentType"]])
-    view = doc["bufferViews"][a["bufferView"]]
-    buf = buffers[view["buffer"]]
-    start = view.get("byteOffset", 0) + a.get("byteOffset", 0)
-    stride = view.get("byteStride", n * dtype.itemsize)
-    count = a["count"]
-    raw = np.frombuffer(buf, dtype=np.uint8, count=(count - 1) * stride + n * dtype.itemsize, offset=start)
-    rows = np.lib.stride_tricks.as_strided(raw, shape=(count, n * dtype.itemsize), strides=(stride, 1))
-    return np.ascontiguousarray(rows).view(dtype).reshape(count, n)
-
-
-def node_matrix(node):
-    if "matrix" in node:
-        return np.array(node["matrix"], dtype=np.float64).reshape(4, 4).T  # column-major
-    t = np.array(node.get("translation", [0, 0, 0]), dtype=np.float64)
-    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
-    s = np.array(node.get("scale", [1, 1, 1]), dtype=np.float64)
-    r = np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-    m = np.eye(4)
-    m[:3, :3] = r * s
-    m[:3, 3] = t
-    return m
-
-
-def walk(doc):
-    """(node, world matrix) for every node of the default scene."""
-    scene = doc["scenes"][doc.get("scene", 0)]
-    stack = [(n, np.eye(4)) for n in scene["nodes"]]
-    while stack:
-        index, parent = stack.pop()
-        node = doc["nodes"][index]
-        world = parent @ node_matrix(node)
-        yield node, world
-        stack.extend((c, world) for c in node.get("children", []))
 
 
 # ---------------------------------------------------------------------------------------
@@ -220,46 +124,14 @@ def write_ply(path, positions, normals, faces):
 
 
 def convert_meshes(doc, buffers, transform, white_override, workdir, tag, shapes):
-    for node, world in walk(doc):
-        if "mesh" not in node:
-            continue
-        world = transform @ world
-        linear = world[:3, :3]
-        normal_matrix = np.linalg.inv(linear).T
-        flip = np.linalg.det(linear) < 0  # glTF: a mirroring transform reverses the winding
-        for p, prim in enumerate(doc["meshes"][node["mesh"]]["primitives"]):
-            if prim.get("mode", 4) != 4:
-                raise SceneError(f"mesh {node['mesh']}: only triangle lists are converted")
-            positions = read_accessor(doc, buffers, prim["attributes"]["POSITION"]).astype(np.float64)
-            positions = positions @ linear.T + world[:3, 3]
-            normals = None
-            if "NORMAL" in prim["attributes"]:
-                normals = read_accessor(doc, buffers, prim["attributes"]["NORMAL"]).astype(np.float64) @ normal_matrix.T
-                normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
-            if "indices" in prim:
-                faces = read_accessor(doc, buffers, prim["indices"]).reshape(-1, 3).astype(np.int64)
-            else:
-                faces = np.arange(len(positions)).reshape(-1, 3)
-            if flip:
-                faces = faces[:, ::-1]
-            material = doc["materials"][prim["material"]] if "material" in prim else {}
-            bsdf, emitter = mitsuba_material(material, white_override)
-            ply = os.path.join(workdir, f"{tag}-{node['mesh']}-{p}-{len(shapes)}.ply")
-            write_ply(ply, positions, normals, faces)
-            shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": normals is None}
-            if emitter is not None:
-                shape["emitter"] = emitter
-            shapes[f"shape{len(shapes)}"] = shape
-
-
-def find_camera(doc):
-    for node, world in walk(doc):
-        if "camera" in node:
-            camera = doc["cameras"][node["camera"]]
-            if camera.get("type") != "perspective":
-                raise SceneError("only perspective cameras are converted")
-            return camera["perspective"], world
-    raise SceneError("the scene has no camera")
+    for name, positions, normals, faces, material in triangle_meshes(doc, buffers, transform):
+        bsdf, emitter = mitsuba_material(material, white_override)
+        ply = os.path.join(workdir, f"{tag}-{name}-{len(shapes)}.ply")
+        write_ply(ply, positions, normals, faces)
+        shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": normals is None}
+        if emitter is not None:
+            shape["emitter"] = emitter
+        shapes[f"shape{len(shapes)}"] = shape
 
 
 def build_scene(args, workdir):
@@ -275,10 +147,7 @@ def build_scene(args, workdir):
             raise SceneError(f"--matrix: 16 numbers expected, {len(values)} given")
         m = np.array(values, dtype=np.float64).reshape(4, 4).T  # column-major
         convert_meshes(insert_doc, insert_buffers, m, args.insert_white, workdir, "insert", shapes)
-    perspective, world = find_camera(doc)
-    origin = world[:3, 3]
-    forward = world[:3, :3] @ np.array([0.0, 0.0, -1.0])
-    up = world[:3, :3] @ np.array([0.0, 1.0, 0.0])
+    perspective, origin, forward, up = camera_frame(doc)
     sensor = {
         "type": "perspective",
         "fov_axis": "y",

@@ -25,6 +25,7 @@ SERIES = [
     ("pathlight-gpu.csv", "pathlight GPU backend (this machine)", "tab:orange", "o-"),
     ("mitsuba.csv", "Mitsuba 3", "tab:green", "o-"),
     ("mitsuba-ldsampler.csv", "Mitsuba 3, ldsampler", "tab:green", "x:"),
+    ("pbrt-bdpt.csv", "pbrt-v4 bdpt (against its own converged image)", "tab:red", "o-"),
     # Measured on another machine (`--pathlight-only`), drawn for scale, not compared.
     ("pathlight-h100.csv", "pathlight GPU backend, H100 (other machine)", "tab:gray", "s--"),
 ]

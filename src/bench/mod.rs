@@ -80,6 +80,7 @@ impl BenchRow {
     }
 }
 
+pub mod pbrt;
 pub mod peer;
 pub mod series;
 

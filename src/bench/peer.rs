@@ -39,9 +39,19 @@ use crate::sampling::SamplerKind;
 use crate::scene::{FlatScene, ViewSettings};
 use crate::{render_progressive_with, Backend, RenderSettings};
 
+/// The peer renderer.
+#[derive(Clone, Debug)]
+pub enum PeerKind {
+    /// Mitsuba 3 through `bench/mitsuba_peer.py` (its `path` integrator).
+    Mitsuba,
+    /// pbrt-v4 (`super::pbrt`), with the integrator it names.
+    Pbrt(super::pbrt::PbrtOptions),
+}
+
 /// How the peer benchmark runs.
 #[derive(Clone)]
 pub struct PeerOptions {
+    pub peer: PeerKind,
     pub width: u32,
     pub height: u32,
     /// Each renderer's series stops after the checkpoint that passes this many seconds.
@@ -448,7 +458,15 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
             pathlight.push(backend_series(&mut backend, &gpu_settings, &file, &reference, options)?);
         }
     }
-    let (peer, agreement, peer_low_discrepancy) = if options.run_peer {
+    let (peer, agreement, peer_low_discrepancy) = if let (true, PeerKind::Pbrt(pbrt)) =
+        (options.run_peer, &options.peer)
+    {
+        // Measured against its own converged image; how far that is from pathlight's is
+        // the agreement (spectral rendering keeps it from passing the z-test exactly).
+        let run = super::pbrt::run(scene, options, pbrt)?;
+        let agreement = compare_images(&run.converged, &reference, &CompareOptions::default())?;
+        (Some(run.series), Some(agreement), None)
+    } else if options.run_peer {
         let (peer, converged) =
             if options.reuse_series { peer_outputs(scene, options)? } else { peer_series(scene, options)? };
         let agreement = compare_images(&converged, &reference, &CompareOptions::default())?;

@@ -77,7 +77,10 @@ fn log_lerp(x0: f64, y0: f64, x1: f64, y1: f64, x: f64) -> f64 {
 /// The results as Markdown: one row per pathlight backend and scene.
 pub fn markdown(results: &[PeerResult]) -> String {
     let mut s = String::new();
-    s += "| scene | same image as the peer? | pathlight backend | relMSE compared | pathlight s | Mitsuba s | speed vs Mitsuba (time to equal error) | at equal time | relMSE pathlight | relMSE Mitsuba | speed vs Mitsuba with ldsampler |\n";
+    if let Some(peer) = results.iter().find_map(|r| r.peer.as_ref()) {
+        s += &format!("Peer: {}\n\n", peer.label);
+    }
+    s += "| scene | same image as the peer? | pathlight series | relMSE compared | pathlight s | peer s | speed vs the peer (time to equal error) | at equal time | relMSE pathlight | relMSE peer | speed vs the peer's low-discrepancy sampler |\n";
     s += "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for r in results {
         let same = match &r.agreement {

@@ -89,12 +89,21 @@ pub struct BenchArgs {
     /// caustics need 8,192: bench/history/peers.md).
     #[arg(long, default_value_t = 8192)]
     converged_spp: u32,
+    /// With --peer pbrt: the pbrt executable.
+    #[arg(long, default_value = "pbrt")]
+    pbrt: PathBuf,
+    /// With --peer pbrt: pbrt's integrator (bdpt, path, …).
+    #[arg(long, default_value = "bdpt")]
+    pbrt_integrator: String,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Peer {
     /// Mitsuba 3 (`pip install mitsuba`), through bench/mitsuba_peer.py.
     Mitsuba,
+    /// pbrt-v4 (../shared/peers/pbrt-v4/build_pbrt.sh), scenes converted by
+    /// bench/pbrt_peer.py; each renderer measured against its own converged image.
+    Pbrt,
 }
 
 pub fn run(args: BenchArgs) -> Result<(), Error> {
@@ -157,7 +166,15 @@ fn run_peer(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) -> Resul
     if !(args.peer_seconds > 0.0 && args.peer_seconds.is_finite()) {
         return Err(Error::Settings("--peer-seconds must be positive and finite".into()));
     }
+    let peer = match args.peer.expect("checked by the caller") {
+        Peer::Mitsuba => peer::PeerKind::Mitsuba,
+        Peer::Pbrt => peer::PeerKind::Pbrt(pathlight::bench::pbrt::PbrtOptions {
+            binary: args.pbrt.clone(),
+            integrator: args.pbrt_integrator.clone(),
+        }),
+    };
     let options = PeerOptions {
+        peer,
         width: args.width,
         height: args.height,
         seconds: args.peer_seconds,
@@ -198,7 +215,7 @@ fn run_peer(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) -> Resul
         let r = peer::run_scene(scene, &options)?;
         out!("{}: reference {}", r.scene, r.reference_note);
         if let Some(agreement) = &r.agreement {
-            out!("{}: Mitsuba's converged image vs the reference: {agreement}", r.scene);
+            out!("{}: the peer's converged image vs the reference: {agreement}", r.scene);
         }
         results.push(r);
     }
