@@ -155,6 +155,11 @@ pub fn run(scene: &BenchScene, options: &PeerOptions, pbrt: &PbrtOptions) -> Res
         batches.push(LinearImage::read(&path)?);
     }
     let converged = mean_of_batches(&batches);
+    let log = dir.join(format!("{tag}.csv"));
+    let label = format!("pbrt-v4 {}", pbrt.integrator);
+    if options.reuse_series {
+        return Ok(PbrtRun { series: super::peer::read_series(&log, label)?, converged });
+    }
     let startup = (0..3)
         .map(|_| render(pbrt, &file, 1, 0, &scratch, true).map(|(_, s)| s))
         .collect::<Result<Vec<f64>>>()?
@@ -178,8 +183,8 @@ pub fn run(scene: &BenchScene, options: &PeerOptions, pbrt: &PbrtOptions) -> Res
         spp *= 2;
     }
     let _ = std::fs::remove_file(&scratch);
-    let series = Series { label: format!("pbrt-v4 {}", pbrt.integrator), points, key: None };
-    std::fs::write(dir.join(format!("{tag}.csv")), series.csv()).map_err(|e| Error::io(&dir, e))?;
+    let series = Series { label, points, key: None };
+    std::fs::write(&log, series.csv()).map_err(|e| Error::io(&log, e))?;
     Ok(PbrtRun { series, converged })
 }
 

@@ -346,7 +346,7 @@ fn peer_outputs(scene: &BenchScene, options: &PeerOptions) -> Result<(Series, Li
 }
 
 /// Reads a series CSV (columns `spp`, `seconds` and `relmse`, by name).
-fn read_series(path: &Path, label: String) -> Result<Series> {
+pub(super) fn read_series(path: &Path, label: String) -> Result<Series> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
@@ -380,14 +380,15 @@ pub fn flat_scene(scene: &BenchScene, options: &PeerOptions) -> Result<Arc<FlatS
 /// already there.
 fn backend_series(
     backend: &mut dyn Backend,
+    device: &str,
     settings: &RenderSettings,
     file: &Path,
     reference: &LinearImage,
     options: &PeerOptions,
 ) -> Result<Series> {
     let key =
-        SeriesKey { backend: backend.name(), integrator: settings.integrator, sampler: settings.sampler };
-    let mut label = format!("pathlight {}", key.backend);
+        SeriesKey { backend: device.to_string(), integrator: settings.integrator, sampler: settings.sampler };
+    let mut label = format!("pathlight {}", backend.name());
     if key.integrator != Integrator::Path {
         label += &format!(", {}", key.integrator);
     }
@@ -440,14 +441,21 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
         if options.cpu {
             let mut backend = CpuBackend::shared(flat.clone(), &settings);
             let file = series_file(&dir, "cpu", &settings);
-            pathlight.push(backend_series(&mut backend, &settings, &file, &reference, options)?);
+            pathlight.push(backend_series(&mut backend, "cpu", &settings, &file, &reference, options)?);
             if integrator == Integrator::Path {
                 // The same backend with independent random numbers: what the default Sobol
                 // sampler gains, in the same run.
                 let independent = RenderSettings { sampler: SamplerKind::Independent, ..settings.clone() };
                 let mut backend = CpuBackend::shared(flat.clone(), &independent);
                 let file = series_file(&dir, "cpu", &independent);
-                pathlight.push(backend_series(&mut backend, &independent, &file, &reference, options)?);
+                pathlight.push(backend_series(
+                    &mut backend,
+                    "cpu",
+                    &independent,
+                    &file,
+                    &reference,
+                    options,
+                )?);
             }
         }
         if let Some(ctx) = options.gpu.as_ref().filter(|_| integrator.has_gpu_kernel()) {
@@ -455,7 +463,7 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
             let gpu_settings = RenderSettings { splits, ..settings.clone() };
             let mut backend = GpuBackend::new(ctx.clone(), &flat, &gpu_settings)?;
             let file = series_file(&dir, "gpu", &gpu_settings);
-            pathlight.push(backend_series(&mut backend, &gpu_settings, &file, &reference, options)?);
+            pathlight.push(backend_series(&mut backend, "gpu", &gpu_settings, &file, &reference, options)?);
         }
     }
     let (peer, agreement, peer_low_discrepancy) = if let (true, PeerKind::Pbrt(pbrt)) =

@@ -19,6 +19,7 @@ pub struct Series {
 /// that differ in the integrator alone.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SeriesKey {
+    /// `cpu` or `gpu` (not the backend's name, which also says what its integrator does).
     pub backend: String,
     pub integrator: Integrator,
     pub sampler: SamplerKind,

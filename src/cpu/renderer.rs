@@ -119,7 +119,11 @@ impl<'a> CpuBackend<'a> {
     /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
     /// the scene and camera allow it)?
     pub fn light_traces_caustics(&self) -> bool {
-        self.scene_light_traced && camera_supports_light_tracing(&self.camera) && !self.camera_sees_only_delta
+        // BDPT makes the light tracer's paths with its own t = 1 strategy.
+        self.settings.integrator == Integrator::Path
+            && self.scene_light_traced
+            && camera_supports_light_tracing(&self.camera)
+            && !self.camera_sees_only_delta
     }
 
     fn integrator_settings(&self) -> IntegratorSettings {
