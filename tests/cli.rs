@@ -362,6 +362,47 @@ fn peer_bench_without_the_peer_is_a_clear_error() {
 }
 
 #[test]
+fn pbrt_peer_bench_without_pbrt_is_a_clear_error_after_each_integrators_series() {
+    // `bench --peer pbrt --integrator path,bdpt`: the reference, a series per integrator,
+    // then the scene converted (bench/pbrt_peer.py, which needs numpy) and pbrt run; a
+    // missing pbrt must be named, after the series were written.
+    let dir = temp_dir("pbrt-peer");
+    let out = pathlight()
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["bench", "--peer", "pbrt", "--no-gpu", "--integrator", "path,bdpt", "--width", "8"])
+        .args([
+            "--height",
+            "8",
+            "--reference-spp",
+            "4",
+            "--peer-seconds",
+            "0.001",
+            "--pbrt",
+            "/nonexistent/pbrt",
+        ])
+        .arg("--out")
+        .arg(&dir)
+        .arg("cornell-box")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    for file in ["pathlight-cpu.csv", "pathlight-cpu-bdpt.csv"] {
+        let series = std::fs::read_to_string(dir.join("cornell-box").join(file)).unwrap();
+        assert!(series.starts_with("spp,seconds,relmse\n1,"), "{file}: {series}");
+    }
+    // Which step fails depends on this machine's Python, and the message must say which.
+    let numpy = Command::new("python3").args(["-c", "import numpy"]).status().is_ok_and(|s| s.success());
+    if numpy {
+        assert!(stderr.contains("could not run pbrt (/nonexistent/pbrt)"), "{stderr}");
+        assert!(dir.join("cornell-box/pbrt-bdpt.pbrt").exists(), "the converted scene is missing");
+    } else {
+        assert!(stderr.contains("pbrt_peer.py: converting cornell-box failed"), "{stderr}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn shards_render_and_merge_from_the_command_line() {
     let dir = temp_dir("shards");
     let scene = common::scene("cornell-box.gltf");
