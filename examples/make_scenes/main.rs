@@ -158,31 +158,23 @@ fn lamp_shade_room(path: &Path) {
     furniture.cuboid([-0.6, 0.0, -0.9], [0.6, 0.45, -0.3]);
     let (cx, cz) = (-1.3, -1.4);
     furniture.cuboid([cx - 0.2, 0.0, cz - 0.2], [cx + 0.2, 0.04, cz + 0.2]);
-    furniture.cuboid([cx - 0.02, 0.04, cz - 0.02], [cx + 0.02, 1.2, cz + 0.02]);
+    furniture.cuboid([cx - 0.02, 0.04, cz - 0.02], [cx + 0.02, 1.19, cz + 0.02]);
     let (r, y_lo, y_hi, sides) = (0.15, 1.2, 1.8, 12);
     let at = |k: usize, radius: f64, y: f64| {
         let a = 2.0 * PI * k as f64 / sides as f64;
         [cx + radius * a.cos(), y, cz + radius * a.sin()]
     };
-    for k in 0..sides {
-        // Outside and inside of the shade's wall: two faces, each one-sided toward its side.
-        let q = [at(k, r, y_lo), at(k + 1, r, y_lo), at(k + 1, r, y_hi), at(k, r, y_hi)];
-        let mid = at(k, r, 1.5);
-        let out = [cx + 2.0 * (mid[0] - cx), 1.5, cz + 2.0 * (mid[2] - cz)];
-        furniture.quad(q, out);
-        furniture.triangle([at(k, r, y_lo), at(k + 1, r, y_lo), [cx, y_lo, cz]], [cx, 0.0, cz]);
-    }
-    g.mesh("furniture and lamp", &furniture, dark);
-    let mut shade_inside = Mesh::default();
+    g.mesh("furniture and lamp stand", &furniture, dark);
+    // The shade: one surface, white on both sides as every opaque pathlight surface is
+    // (a second, coincident face for its inside would leave which one a ray hits to
+    // rounding, and the backends would disagree).
+    let mut shade = Mesh::default();
     for k in 0..sides {
         let q = [at(k, r, y_lo), at(k + 1, r, y_lo), at(k + 1, r, y_hi), at(k, r, y_hi)];
-        shade_inside.quad(q, [cx, 1.5, cz]);
-        shade_inside.triangle(
-            [at(k, r, y_lo + 0.001), at(k + 1, r, y_lo + 0.001), [cx, y_lo + 0.001, cz]],
-            [cx, 2.0, cz],
-        );
+        shade.quad(q, [cx, 1.5, cz]);
+        shade.triangle([at(k, r, y_lo), at(k + 1, r, y_lo), [cx, y_lo, cz]], [cx, 2.0, cz]);
     }
-    g.mesh("inside of the shade", &shade_inside, white);
+    g.mesh("shade", &shade, white);
     // The bulb: a disk of radius 0.1 facing up, 5 cm above the shade's floor.
     let mut bulb = Mesh::default();
     for k in 0..sides {

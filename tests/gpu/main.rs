@@ -186,6 +186,7 @@ const SCENES: &[&str] = &[
     "punctual.gltf",
     "env-furnace.gltf",
     "env-objects.gltf",
+    "lamp-shade-room.gltf",
 ];
 
 #[test]
@@ -250,6 +251,12 @@ fn light_traced_renders_agree_to_rounding() {
 #[test]
 fn cornell_box_gpu_matches_cpu() {
     gpu_matches_cpu("cornell-box.gltf", 32, 128);
+}
+
+#[test]
+fn lamp_shade_room_gpu_matches_cpu() {
+    // Lit only by way of the ceiling: rare bright paths, so more samples than the box.
+    gpu_matches_cpu("lamp-shade-room.gltf", 24, 512);
 }
 
 #[test]
