@@ -116,21 +116,7 @@ pub fn camera_sees_only_delta_surfaces(scene: &FlatScene, camera: &Camera) -> bo
 /// A material that reflects or refracts only by delta lobes, from both sides, with nothing
 /// that varies over the surface (textures) or lets light through unscattered (alpha).
 fn is_delta_occluder(m: &Material) -> bool {
-    let textures = [
-        m.base_color_texture,
-        m.metallic_roughness_texture,
-        m.normal_texture,
-        m.emissive_texture,
-        m.transmission_texture,
-        m.specular_texture,
-        m.specular_color_texture,
-        m.clearcoat_texture,
-        m.clearcoat_roughness_texture,
-        m.clearcoat_normal_texture,
-        m.sheen_color_texture,
-        m.sheen_roughness_texture,
-    ];
-    if textures.iter().any(|&t| t != INVALID_INDEX)
+    if m.texture_inputs().iter().any(|&t| t != INVALID_INDEX)
         || m.flags & (MATERIAL_ALPHA_MASK | MATERIAL_ALPHA_BLEND) != 0
     {
         return false;
