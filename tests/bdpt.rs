@@ -76,19 +76,13 @@ fn bdpt_equals_path(name: &str, scene: &FlatScene, size: u32) -> Result<(), Stri
     })
 }
 
-#[test]
-fn bdpt_equals_the_path_tracer_on_every_bundled_scene() {
-    let size = 24;
-    let mut files = gltf_files(&common::root().join("scenes"));
-    files.extend(gltf_files(&common::root().join("scenes/hard")));
-    // 11 scenes in scenes/ and 23 in scenes/hard/ when this was written: a listing that
-    // found far fewer would be testing nothing.
-    assert!(files.len() >= 30, "found only {} scenes", files.len());
+/// [`bdpt_equals_path`] on each of `scenes` (name, scene), one honest failure allowed
+/// (a real bias shows on every seed): with 10⁻³ false alarms per comparison, over 36
+/// scenes one has probability 3.5%, two 6e-4.
+fn bdpt_equals_path_on_each(what: &str, scenes: impl IntoIterator<Item = (String, FlatScene)>, size: u32) {
     let mut failures = Vec::new();
-    for file in &files {
-        let name = file.file_stem().unwrap().to_string_lossy().into_owned();
+    for (name, scene) in scenes {
         let started = std::time::Instant::now();
-        let scene = common::flat_scene(file, size, size);
         let verdict = bdpt_equals_path(&name, &scene, size);
         eprintln!(
             "{name}: {} in {:.1} s",
@@ -99,14 +93,26 @@ fn bdpt_equals_the_path_tracer_on_every_bundled_scene() {
             failures.push(format!("{name}: {e}"));
         }
     }
-    // Each comparison has a 10⁻³ false-alarm rate; over 34 scenes one honest failure has
-    // probability 3%, two 6e-4. A real bias shows on every seed, so allow one.
     assert!(
         failures.len() <= 1,
-        "BDPT differs from the path tracer on {} scenes:\n{}",
+        "BDPT differs from the path tracer on {} {what}:\n{}",
         failures.len(),
         failures.join("\n")
     );
+}
+
+#[test]
+fn bdpt_equals_the_path_tracer_on_every_bundled_scene() {
+    let size = 24;
+    let mut files = gltf_files(&common::root().join("scenes"));
+    files.extend(gltf_files(&common::root().join("scenes/hard")));
+    // 12 scenes in scenes/ and 24 in scenes/hard/ when this was written: a listing that
+    // found far fewer would be testing nothing.
+    assert!(files.len() >= 30, "found only {} scenes", files.len());
+    let scenes = files.iter().map(|file| {
+        (file.file_stem().unwrap().to_string_lossy().into_owned(), common::flat_scene(file, size, size))
+    });
+    bdpt_equals_path_on_each("scenes", scenes, size);
 }
 
 #[test]
@@ -115,42 +121,7 @@ fn bdpt_equals_the_path_tracer_on_every_bundled_scene() {
     ignore = "needs ../shared/assets: cargo test --features shared-assets"
 )]
 fn bdpt_equals_the_path_tracer_on_every_khronos_model() {
-    let assets = common::assets();
-    let env = pathlight::light::EnvironmentDesc::load(&assets.join("env/studio_small_05_1k.hdr")).unwrap();
-    let mut models: Vec<PathBuf> = std::fs::read_dir(assets.join("khronos"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.is_dir())
-        .collect();
-    models.sort();
-    assert!(models.len() >= 17, "expected the 17 Khronos models, found {}", models.len());
-    let size = 16;
-    let mut failures = Vec::new();
-    for dir in models {
-        let mut files = gltf_files(&dir);
-        let file = files.pop().unwrap_or_else(|| panic!("no model file in {}", dir.display()));
-        let name = file.file_stem().unwrap().to_string_lossy().into_owned();
-        let (mut scene, _) = pathlight::scene::load(&file).unwrap_or_else(|e| panic!("{e}"));
-        scene.environment = Some(env.clone());
-        let flat = FlatScene::build(&scene, &ViewSettings { camera: None, aspect: 1.0 }).unwrap();
-        let started = std::time::Instant::now();
-        let verdict = bdpt_equals_path(&name, &flat, size);
-        eprintln!(
-            "{name}: {} in {:.1} s",
-            if verdict.is_ok() { "same" } else { "DIFFERENT" },
-            started.elapsed().as_secs_f64()
-        );
-        if let Err(e) = verdict {
-            failures.push(format!("{name}: {e}"));
-        }
-    }
-    // 10⁻³ false alarms per model, 17 models: one honest failure 2%, two 1e-4.
-    assert!(
-        failures.len() <= 1,
-        "BDPT differs from the path tracer on {} models:\n{}",
-        failures.len(),
-        failures.join("\n")
-    );
+    bdpt_equals_path_on_each("Khronos models", common::khronos_models(), 16);
 }
 
 /// Splits every triangle of `scene` into four, the new vertices pushed out onto the unit

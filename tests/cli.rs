@@ -337,23 +337,29 @@ fn unwritable_outputs_fail_before_rendering() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `bench --peer` on the Cornell box at 8×8, a 4-spp reference and series of one
+/// checkpoint, into `dir`, with `extra` options: (succeeded, stderr).
+fn tiny_peer_bench(dir: &std::path::Path, extra: &[&str]) -> (bool, String) {
+    let out = pathlight()
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["bench", "--no-gpu", "--width", "8", "--height", "8", "--reference-spp", "4"])
+        .args(["--peer-seconds", "0.001", "--out"])
+        .arg(dir)
+        .args(extra)
+        .arg("cornell-box")
+        .output()
+        .unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
 #[test]
 fn peer_bench_without_the_peer_is_a_clear_error() {
     // `bench --peer` renders the reference, then pathlight's series, then runs the peer's
     // script; a Python without Mitsuba (here: none at all) must end in an error that says
     // what could not run, after the reference and the series were written.
     let dir = temp_dir("peer");
-    let out = pathlight()
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(["bench", "--peer", "mitsuba", "--no-gpu", "--width", "8", "--height", "8"])
-        .args(["--reference-spp", "4", "--peer-seconds", "0.001", "--python", "/nonexistent/python3"])
-        .arg("--out")
-        .arg(&dir)
-        .arg("cornell-box")
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{stderr}");
+    let (ok, stderr) = tiny_peer_bench(&dir, &["--peer", "mitsuba", "--python", "/nonexistent/python3"]);
+    assert!(!ok, "{stderr}");
     assert!(stderr.contains("could not run /nonexistent/python3"), "{stderr}");
     assert!(dir.join("cornell-box/reference.exr").exists(), "no reference written");
     let series = std::fs::read_to_string(dir.join("cornell-box/pathlight-cpu.csv")).unwrap();
@@ -367,26 +373,11 @@ fn pbrt_peer_bench_without_pbrt_is_a_clear_error_after_each_integrators_series()
     // then the scene converted (bench/pbrt_peer.py, which needs numpy) and pbrt run; a
     // missing pbrt must be named, after the series were written.
     let dir = temp_dir("pbrt-peer");
-    let out = pathlight()
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(["bench", "--peer", "pbrt", "--no-gpu", "--integrator", "path,bdpt", "--width", "8"])
-        .args([
-            "--height",
-            "8",
-            "--reference-spp",
-            "4",
-            "--peer-seconds",
-            "0.001",
-            "--pbrt",
-            "/nonexistent/pbrt",
-        ])
-        .arg("--out")
-        .arg(&dir)
-        .arg("cornell-box")
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{stderr}");
+    let (ok, stderr) = tiny_peer_bench(
+        &dir,
+        &["--peer", "pbrt", "--integrator", "path,bdpt", "--pbrt", "/nonexistent/pbrt"],
+    );
+    assert!(!ok, "{stderr}");
     for file in ["pathlight-cpu.csv", "pathlight-cpu-bdpt.csv"] {
         let series = std::fs::read_to_string(dir.join("cornell-box").join(file)).unwrap();
         assert!(series.starts_with("spp,seconds,relmse\n1,"), "{file}: {series}");

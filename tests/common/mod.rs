@@ -31,6 +31,35 @@ pub fn assets() -> PathBuf {
     dir
 }
 
+/// Every Khronos sample model of the shared assets, by name (its file's), each loaded and
+/// lit by the studio environment map, flattened square: what the Khronos tests render.
+#[allow(dead_code)] // reason: each test binary compiles this module; only some use it
+pub fn khronos_models() -> Vec<(String, pathlight::scene::FlatScene)> {
+    let assets = assets();
+    let env = pathlight::light::EnvironmentDesc::load(&assets.join("env/studio_small_05_1k.hdr")).unwrap();
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(assets.join("khronos"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_dir())
+        .collect();
+    dirs.sort();
+    assert!(dirs.len() >= 17, "expected the 17 Khronos models, found {}", dirs.len());
+    dirs.iter()
+        .map(|dir| {
+            let file = std::fs::read_dir(dir)
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .find(|p| p.extension().is_some_and(|e| e == "glb" || e == "gltf"))
+                .unwrap_or_else(|| panic!("no model file in {}", dir.display()));
+            let name = file.file_name().unwrap().to_string_lossy().into_owned();
+            let (mut scene, _) = pathlight::scene::load(&file).unwrap_or_else(|e| panic!("{e}"));
+            scene.environment = Some(env.clone());
+            let view = pathlight::scene::ViewSettings { camera: None, aspect: 1.0 };
+            (name, pathlight::scene::FlatScene::build(&scene, &view).unwrap())
+        })
+        .collect()
+}
+
 /// Cells of the sphere in (cos θ, φ), equal in solid angle.
 pub const Z_CELLS: usize = 40;
 pub const PHI_CELLS: usize = 80;
