@@ -124,6 +124,20 @@ fn furnace(path: &Path, albedo: f64) {
     );
 }
 
+/// The benchmark's glass scene (issue 8): a perfect mirror sphere and a clear solid glass
+/// sphere in the Cornell room, the classic pair, with materials a peer renderer models
+/// identically (a mirror of reflectance 1; clear glass of index 1.5).
+fn cornell_spheres(g: &mut Gltf) {
+    cornell(g, false);
+    let mirror = g.material(metal("mirror (reflectance 1)", [1.0, 1.0, 1.0], 0.0));
+    let clear = g.material(json!({"name": "clear glass (solid, index 1.5)",
+        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0},
+        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
+            "KHR_materials_volume": {"thicknessFactor": 0.1}}}));
+    g.mesh("mirror sphere", &Mesh::icosphere([0.39, 0.1, 0.37], 0.1, 4, false, true), mirror);
+    g.mesh("glass sphere", &Mesh::icosphere([0.17, 0.1, 0.2], 0.1, 4, false, true), clear);
+}
+
 /// A room lit only by a lamp inside a shade facing the ceiling: a small disk emitter at the
 /// bottom of a deep, narrow cylindrical shade on a floor lamp. Its light leaves upward in a
 /// narrow cone, lights a spot on the ceiling, and reaches everything the camera sees only
@@ -269,18 +283,9 @@ fn main() {
         "Smooth glass: a tinted refracting sphere and a thin-walled pane in the Cornell room",
     );
 
-    // The benchmark's glass scene (issue 8): a perfect mirror sphere and a clear solid
-    // glass sphere in the Cornell room, the classic pair, with materials a peer renderer
-    // models identically (a mirror of reflectance 1; clear glass of index 1.5).
+    // The benchmark's glass scene.
     let mut g = Gltf::default();
-    cornell(&mut g, false);
-    let mirror = g.material(metal("mirror (reflectance 1)", [1.0, 1.0, 1.0], 0.0));
-    let clear = g.material(json!({"name": "clear glass (solid, index 1.5)",
-        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0},
-        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
-            "KHR_materials_volume": {"thicknessFactor": 0.1}}}));
-    g.mesh("mirror sphere", &Mesh::icosphere([0.39, 0.1, 0.37], 0.1, 4, false, true), mirror);
-    g.mesh("glass sphere", &Mesh::icosphere([0.17, 0.1, 0.2], 0.1, 4, false, true), clear);
+    cornell_spheres(&mut g);
     g.write(
         &dir.join("cornell-spheres.gltf"),
         "A mirror sphere and a clear glass sphere in the Cornell room (the speed-against-error benchmark's glass scene)",
@@ -291,15 +296,8 @@ fn main() {
     // joins to the camera can reach it, and both skip that work; the image is the
     // glass scene's, seen through a pane.
     let mut g = Gltf::default();
-    cornell(&mut g, false);
-    let mirror = g.material(metal("mirror (reflectance 1)", [1.0, 1.0, 1.0], 0.0));
-    let clear = g.material(json!({"name": "clear glass (solid, index 1.5)",
-        "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0},
-        "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
-            "KHR_materials_volume": {"thicknessFactor": 0.1}}}));
+    cornell_spheres(&mut g);
     let pane_m = g.material(glass("thin glass pane", 0.0, None));
-    g.mesh("mirror sphere", &Mesh::icosphere([0.39, 0.1, 0.37], 0.1, 4, false, true), mirror);
-    g.mesh("glass sphere", &Mesh::icosphere([0.17, 0.1, 0.2], 0.1, 4, false, true), clear);
     let mut pane = Mesh::default();
     pane.quad(
         [[-0.2, -0.2, -0.7], [0.8, -0.2, -0.7], [0.8, 0.8, -0.7], [-0.2, 0.8, -0.7]],
