@@ -1,7 +1,8 @@
 """The glTF reading both peer converters share (`mitsuba_peer.py`, `pbrt_peer.py`): written
 independently of pathlight's loader, so that a loader bug shows up as a failed z-test rather
 than being copied into both renders. Only what the benchmark scenes use: triangle lists,
-node transforms, vertex normals, perspective cameras; anything else is a SceneError.
+node transforms, vertex normals, perspective cameras, and the materials both peers model as
+pathlight does ([`peer_material`]); anything else is a SceneError.
 """
 
 import base64
@@ -155,3 +156,43 @@ def camera_frame(doc):
     forward = world[:3, :3] @ np.array([0.0, 0.0, -1.0])
     up = world[:3, :3] @ np.array([0.0, 1.0, 0.0])
     return perspective, eye, forward, up
+
+
+def peer_material(material):
+    """The model of a glTF material that a peer renders exactly as pathlight does, as
+    (kind, parameter, emitted RGB or None): ("lambertian", base RGB) for metallic 0,
+    roughness 1, KHR_materials_specular factor 0; ("mirror", None) for smooth metal of base
+    colour 1 (reflectance 1: pathlight's Schlick Fresnel with F0 = 1 is 1 too);
+    ("glass", index) for smooth, clear, solid glass (transmission 1, KHR_materials_volume,
+    no attenuation). Anything else is a SceneError, not an approximation."""
+    name = material.get("name", "(unnamed)")
+    pbr = material.get("pbrMetallicRoughness", {})
+    ext = material.get("extensions", {})
+    base = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
+    metallic = pbr.get("metallicFactor", 1.0)
+    roughness = pbr.get("roughnessFactor", 1.0)
+    if "baseColorTexture" in pbr or "metallicRoughnessTexture" in pbr or "normalTexture" in material:
+        raise SceneError(f"material '{name}': textures are not converted")
+    emissive = np.array(material.get("emissiveFactor", [0, 0, 0]), dtype=np.float64)
+    emissive = emissive * ext.get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+    emission = emissive.tolist() if emissive.max() > 0 else None
+    transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
+    specular = ext.get("KHR_materials_specular", {}).get("specularFactor", 1.0)
+    ior = ext.get("KHR_materials_ior", {}).get("ior", 1.5)
+    if transmission == 1.0 and roughness == 0.0 and metallic == 0.0:
+        volume = ext.get("KHR_materials_volume")
+        if volume is None or volume.get("thicknessFactor", 0.0) <= 0.0:
+            raise SceneError(f"material '{name}': thin-walled glass is not converted")
+        if "attenuationDistance" in volume:
+            raise SceneError(f"material '{name}': volume attenuation is not converted")
+        return "glass", ior, emission
+    if transmission != 0.0:
+        raise SceneError(f"material '{name}': only smooth, clear, solid glass is converted")
+    if metallic == 1.0 and roughness == 0.0 and base == [1.0, 1.0, 1.0]:
+        return "mirror", None, emission
+    if metallic == 0.0 and roughness == 1.0 and specular == 0.0:
+        return "lambertian", base, emission
+    raise SceneError(
+        f"material '{name}' (metallic {metallic}, roughness {roughness}, specular {specular}): "
+        "no peer model is the same as pathlight's; not converted"
+    )

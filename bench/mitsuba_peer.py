@@ -45,7 +45,7 @@ import time
 
 import numpy as np
 
-from gltf_scene import SceneError, camera_frame, read_gltf, triangle_meshes
+from gltf_scene import SceneError, camera_frame, peer_material, read_gltf, triangle_meshes
 
 RELMSE_EPSILON = 1e-2  # the benchmark protocol's (and src/film/convergence.rs's) offset
 
@@ -66,37 +66,13 @@ def mitsuba_material(material, white_override=None):
     """(bsdf dict, emitter dict or None) for a glTF material, or SceneError."""
     if white_override is not None:
         return two_sided({"type": "diffuse", "reflectance": {"type": "rgb", "value": [white_override] * 3}}), None
-    name = material.get("name", "(unnamed)")
-    pbr = material.get("pbrMetallicRoughness", {})
-    ext = material.get("extensions", {})
-    base = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
-    metallic = pbr.get("metallicFactor", 1.0)
-    roughness = pbr.get("roughnessFactor", 1.0)
-    if "baseColorTexture" in pbr or "metallicRoughnessTexture" in pbr or "normalTexture" in material:
-        raise SceneError(f"material '{name}': textures are not converted")
-    emissive = np.array(material.get("emissiveFactor", [0, 0, 0]), dtype=np.float64)
-    emissive = emissive * ext.get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
-    emitter = {"type": "area", "radiance": {"type": "rgb", "value": emissive.tolist()}} if emissive.max() > 0 else None
-    transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
-    specular = ext.get("KHR_materials_specular", {}).get("specularFactor", 1.0)
-    ior = ext.get("KHR_materials_ior", {}).get("ior", 1.5)
-    if transmission == 1.0 and roughness == 0.0 and metallic == 0.0:
-        volume = ext.get("KHR_materials_volume")
-        if volume is None or volume.get("thicknessFactor", 0.0) <= 0.0:
-            raise SceneError(f"material '{name}': thin-walled glass is not converted")
-        if "attenuationDistance" in volume:
-            raise SceneError(f"material '{name}': volume attenuation is not converted")
-        return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0}, emitter
-    if transmission != 0.0:
-        raise SceneError(f"material '{name}': only smooth, clear, solid glass is converted")
-    if metallic == 1.0 and roughness == 0.0 and base == [1.0, 1.0, 1.0]:
+    kind, parameter, emission = peer_material(material)
+    emitter = {"type": "area", "radiance": {"type": "rgb", "value": emission}} if emission else None
+    if kind == "glass":
+        return {"type": "dielectric", "int_ior": parameter, "ext_ior": 1.0}, emitter
+    if kind == "mirror":
         return two_sided({"type": "conductor", "material": "none"}), emitter
-    if metallic == 0.0 and roughness == 1.0 and specular == 0.0:
-        return two_sided({"type": "diffuse", "reflectance": {"type": "rgb", "value": base}}), emitter
-    raise SceneError(
-        f"material '{name}' (metallic {metallic}, roughness {roughness}, specular {specular}): "
-        "no Mitsuba BSDF with the same model; not converted"
-    )
+    return two_sided({"type": "diffuse", "reflectance": {"type": "rgb", "value": parameter}}), emitter
 
 
 # ---------------------------------------------------------------------------------------

@@ -38,7 +38,7 @@ import sys
 
 import numpy as np
 
-from gltf_scene import SceneError, camera_frame, read_gltf, triangle_meshes
+from gltf_scene import SceneError, camera_frame, peer_material, read_gltf, triangle_meshes
 
 MAX_DEPTH = 100
 
@@ -47,39 +47,15 @@ def pbrt_material(material, white_override=None):
     """(material directive, area light directive or None) for a glTF material."""
     if white_override is not None:
         return f'Material "diffuse" "rgb reflectance" [{white_override} {white_override} {white_override}]', None
-    name = material.get("name", "(unnamed)")
-    pbr = material.get("pbrMetallicRoughness", {})
-    ext = material.get("extensions", {})
-    base = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
-    metallic = pbr.get("metallicFactor", 1.0)
-    roughness = pbr.get("roughnessFactor", 1.0)
-    if "baseColorTexture" in pbr or "metallicRoughnessTexture" in pbr or "normalTexture" in material:
-        raise SceneError(f"material '{name}': textures are not converted")
-    emissive = np.array(material.get("emissiveFactor", [0, 0, 0]), dtype=np.float64)
-    emissive = emissive * ext.get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+    kind, parameter, emission = peer_material(material)
     light = None
-    if emissive.max() > 0:
-        light = 'AreaLightSource "diffuse" "rgb L" [{} {} {}] "bool twosided" false'.format(*emissive.tolist())
-    transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
-    specular = ext.get("KHR_materials_specular", {}).get("specularFactor", 1.0)
-    ior = ext.get("KHR_materials_ior", {}).get("ior", 1.5)
-    if transmission == 1.0 and roughness == 0.0 and metallic == 0.0:
-        volume = ext.get("KHR_materials_volume")
-        if volume is None or volume.get("thicknessFactor", 0.0) <= 0.0:
-            raise SceneError(f"material '{name}': thin-walled glass is not converted")
-        if "attenuationDistance" in volume:
-            raise SceneError(f"material '{name}': volume attenuation is not converted")
-        return f'Material "dielectric" "float eta" [{ior}] "float roughness" [0]', light
-    if transmission != 0.0:
-        raise SceneError(f"material '{name}': only smooth, clear, solid glass is converted")
-    if metallic == 1.0 and roughness == 0.0 and base == [1.0, 1.0, 1.0]:
+    if emission:
+        light = 'AreaLightSource "diffuse" "rgb L" [{} {} {}] "bool twosided" false'.format(*emission)
+    if kind == "glass":
+        return f'Material "dielectric" "float eta" [{parameter}] "float roughness" [0]', light
+    if kind == "mirror":
         return 'Material "conductor" "rgb reflectance" [1 1 1] "float roughness" [0]', light
-    if metallic == 0.0 and roughness == 1.0 and specular == 0.0:
-        return 'Material "diffuse" "rgb reflectance" [{} {} {}]'.format(*base), light
-    raise SceneError(
-        f"material '{name}' (metallic {metallic}, roughness {roughness}, specular {specular}): "
-        "no pbrt material with the same model; not converted"
-    )
+    return 'Material "diffuse" "rgb reflectance" [{} {} {}]'.format(*parameter), light
 
 
 def numbers(values):
