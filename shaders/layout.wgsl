@@ -139,6 +139,9 @@ struct FrameParams {
     sampler_kind: u32,
     splits: u32,
     light_traced_caustics: u32,
+    camera_connections: u32,
+    scene_center: vec3<f32>,
+    scene_radius: f32,
 }
 
 struct FilmPixel {

@@ -7,10 +7,14 @@ struct LightSample {
     is_delta: bool,
     shadow_ray: Ray,
     valid: bool,
+    // The sampled point (triangle and point lights; zero for lights at infinity) and the
+    // light's index: bidirectional path tracing weighs the sample as a light vertex.
+    position: vec3<f32>,
+    light_index: u32,
 }
 
 fn no_light_sample() -> LightSample {
-    return LightSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false, Ray(vec3<f32>(0.0), vec3<f32>(0.0), 0.0), false);
+    return LightSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false, Ray(vec3<f32>(0.0), vec3<f32>(0.0), 0.0), false, vec3<f32>(0.0), INVALID_INDEX);
 }
 
 fn choose_light(u: vec2<f32>) -> u32 {
@@ -102,7 +106,7 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_poin
         }
         let pdf = pmf * dist2 / (na.w * abs(cos_light));
         let q_off = offset_ray_origin(point.p, point.p_error, na.xyz, -wi);
-        return LightSample(wi, emitted_radiance(material, light.triangle, point.b), pdf, false, spawn_ray_to(p, p_error, n_geometric, q_off), true);
+        return LightSample(wi, emitted_radiance(material, light.triangle, point.b), pdf, false, spawn_ray_to(p, p_error, n_geometric, q_off), true, point.p, choice.index);
     }
     if (FEATURE_POINT_LIGHTS && (light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT)) {
         let to_light = light.position - p;
@@ -115,18 +119,18 @@ fn sample_light(p: vec3<f32>, p_error: vec3<f32>, n_geometric: vec3<f32>, u_poin
         if (FEATURE_SPOT_LIGHTS && light.kind == LIGHT_SPOT) {
             radiance *= spot_falloff(light, -dot(wi, light.direction));
         }
-        return LightSample(wi, radiance, pmf, true, spawn_ray_to(p, p_error, n_geometric, light.position), true);
+        return LightSample(wi, radiance, pmf, true, spawn_ray_to(p, p_error, n_geometric, light.position), true, light.position, choice.index);
     }
     if (FEATURE_ENVIRONMENT && light.kind == LIGHT_ENVIRONMENT) {
         let es = sample_environment(u_point);
         if (!es.valid) {
             return no_light_sample();
         }
-        return LightSample(es.wi, es.radiance, pmf * es.pdf_solid_angle, false, spawn_ray(p, p_error, n_geometric, es.wi), true);
+        return LightSample(es.wi, es.radiance, pmf * es.pdf_solid_angle, false, spawn_ray(p, p_error, n_geometric, es.wi), true, vec3<f32>(0.0), choice.index);
     }
     if (FEATURE_DIRECTIONAL_LIGHTS && light.kind == LIGHT_DIRECTIONAL) {
         let wi = -light.direction;
-        return LightSample(wi, light.intensity, pmf, true, spawn_ray(p, p_error, n_geometric, wi), true);
+        return LightSample(wi, light.intensity, pmf, true, spawn_ray(p, p_error, n_geometric, wi), true, vec3<f32>(0.0), choice.index);
     }
     return no_light_sample();
 }

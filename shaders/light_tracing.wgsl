@@ -3,11 +3,6 @@
 // `render`, src/integrator/light_tracing.rs the two factors by which importance transport
 // differs from radiance transport.
 
-// Light-path vertices after which roulette may end a light path.
-const LIGHT_RR_MIN_VERTICES: u32 = 2u;
-// The stream row light paths draw from (no pixel has it).
-const LIGHT_PATH_STREAM: u32 = 0xffffffffu;
-
 // One invocation per light path of pass `frame.sample_offset`: path i = y · width + x, the
 // band's rows as `render` covers them. Its camera connections are splatted, divided by the
 // number of paths, into `caustics`, which the host clears before the pass.

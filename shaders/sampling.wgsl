@@ -31,6 +31,10 @@ const SAMPLER_INDEPENDENT: u32 = 1u;
 var<private> path_sampler_kind: u32;
 var<private> rng_s: vec4<u32>;
 
+// The stream row light paths draw from (no pixel has it): the light tracer's and
+// bidirectional path tracing's light subpaths.
+const LIGHT_PATH_STREAM: u32 = 0xffffffffu;
+
 fn replicate_of(sample_index: u32) -> u32 {
     return sample_index & 1u;
 }

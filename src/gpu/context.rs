@@ -111,6 +111,9 @@ pub struct Kernel {
     pub key: KernelKey,
     pub render: wgpu::ComputePipeline,
     pub first_hit: wgpu::ComputePipeline,
+    /// Bidirectional path tracing's second pass (`bdpt_resolve` in shaders/bdpt.wgsl): adds
+    /// a traced pass and its splats to the film. None for the path tracer.
+    pub resolve: Option<wgpu::ComputePipeline>,
     /// Wall time to build the `render` pipeline (override specialisation, SPIR-V generation
     /// and the driver's compile).
     pub build_seconds: f64,
@@ -126,8 +129,9 @@ pub(crate) struct KernelModule {
     pipeline_layout: wgpu::PipelineLayout,
 }
 
-/// The kernel's bindings, 0 to 19 of group 0 (shaders/bindings.wgsl and src/gpu/tables.rs).
-const KERNEL_BINDINGS: u32 = 20;
+/// The kernel's bindings, 0 to 20 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs, and
+/// 20, `bdpt_state` in shaders/bdpt.wgsl, which only that kernel declares).
+const KERNEL_BINDINGS: u32 = 21;
 
 /// A device ready to render, with its compiled kernels.
 pub struct GpuContext {
@@ -248,8 +252,9 @@ impl GpuContext {
         // Binding numbers as declared in shaders/bindings.wgsl and src/gpu/tables.rs. The
         // per-dispatch ones are storage buffers: lavapipe recompiles the kernel for every
         // re-bound uniform that steers its branches (see shaders/bindings.wgsl).
-        // `film`, `first_hits`, `ray_counts` and `caustics`, which the kernel writes.
-        let read_write = [7, 8, 9, 19];
+        // `film`, `first_hits`, `ray_counts`, `caustics` and `bdpt_state`, which the kernels
+        // write.
+        let read_write = [7, 8, 9, 19, 20];
         let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..KERNEL_BINDINGS)
             .map(|binding| {
                 let ty = if tables.is_uniform(binding) {
@@ -324,7 +329,11 @@ impl GpuContext {
         constants.push(("SPLITTING", if key.splitting { 1.0 } else { 0.0 }));
         let (render, build_seconds) = self.build_pipeline(&source, "render", &constants)?;
         let (first_hit, _) = self.build_pipeline(&source, "first_hit", &constants)?;
-        let kernel = Arc::new(Kernel { key, render, first_hit, build_seconds, source });
+        let resolve = match key.integrator {
+            Integrator::Bdpt => Some(self.build_pipeline(&source, "bdpt_resolve", &constants)?.0),
+            Integrator::Path => None,
+        };
+        let kernel = Arc::new(Kernel { key, render, first_hit, resolve, build_seconds, source });
         cache.insert(key, kernel.clone());
         Ok(kernel)
     }

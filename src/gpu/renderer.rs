@@ -10,6 +10,8 @@ use super::context::{GpuContext, Kernel};
 use super::tables::{self, UniformTables};
 use crate::error::{Error, Result};
 use crate::film::Film;
+use crate::integrator::bdpt::{BdptStats, BDPT_MAX_VERTICES};
+use crate::integrator::Integrator;
 use crate::render::{Backend, RenderSettings};
 use crate::scene::layout::{FilmPixel, FirstHit, FrameParams, Light};
 use crate::scene::FlatScene;
@@ -61,8 +63,19 @@ pub struct GpuBackend {
     /// The camera sees only delta surfaces: the light tracer's joins to it cannot
     /// contribute (`crate::integrator::delta_view`). Decided for the scene's camera; a
     /// camera set later keeps the light tracer (the backend holds no triangles to decide
-    /// it again).
+    /// it again). Bidirectional path tracing skips its t = 1 joins by the same decision.
     camera_sees_only_delta: bool,
+    /// Bidirectional path tracing's per-pixel sums and truncation count (`bdpt_state` in
+    /// shaders/bdpt.wgsl; one unused pixel for the path tracer).
+    bdpt_state: wgpu::Buffer,
+    /// The sample index whose bidirectional pass is traced into `bdpt_state` and
+    /// `caustics` (its splats) but not yet wholly added to the film.
+    bdpt_pass: Option<u32>,
+    /// Light subpaths truncated, folded in from the device's 32-bit counter.
+    bdpt_truncated: u64,
+    /// The scene's bounding sphere (`FrameParams::scene_center`).
+    scene_center: [f32; 3],
+    scene_radius: f32,
 }
 
 impl GpuBackend {
@@ -91,6 +104,19 @@ impl GpuBackend {
                 "--splits {}: this kernel was built without splitting",
                 settings.splits
             )));
+        }
+        if kernel.key.integrator == Integrator::Bdpt {
+            // Debugging aids of the CPU twin only.
+            if settings.record_strategies {
+                return Err(Error::Settings(
+                    "--bdpt-strategies: the GPU backend does not record strategies; render with --backend cpu".into(),
+                ));
+            }
+            if let Some((s, t)) = settings.bdpt_strategy {
+                return Err(Error::Settings(format!(
+                    "--bdpt-strategy {s},{t}: the GPU backend renders every strategy; render with --backend cpu"
+                )));
+            }
         }
         if let Some(misfit) = kernel.key.tables.misfit(scene) {
             return Err(Error::Gpu(format!("{misfit} ({})", kernel.key.tables.describe())));
@@ -194,15 +220,21 @@ impl GpuBackend {
         let first_hits = zeroed("first-hit buffer", pixels * std::mem::size_of::<FirstHit>() as u64)?;
         let ray_counts = zeroed("ray-count buffer", pixels * 4)?;
         // Light tracing as the CPU backend decides it (`CpuBackend::light_traces_caustics`).
-        let caustics_kernel =
-            if settings.light_tracing && crate::integrator::scene_supports_light_tracing(scene) {
-                Some(ctx.caustics_kernel(scene.features, kernel.key.tables)?)
-            } else {
-                None
-            };
-        // Two words per channel (a 64-bit fixed-point sum) per pixel.
-        let caustic_pixels = if caustics_kernel.is_some() { pixels } else { 1 };
+        let bdpt = settings.integrator == Integrator::Bdpt;
+        let caustics_kernel = if settings.integrator == Integrator::Path
+            && settings.light_tracing
+            && crate::integrator::scene_supports_light_tracing(scene)
+        {
+            Some(ctx.caustics_kernel(scene.features, kernel.key.tables)?)
+        } else {
+            None
+        };
+        // Two words per channel (a 64-bit fixed-point sum) per pixel: the light tracer's
+        // image, or bidirectional path tracing's t = 1 splats.
+        let caustic_pixels = if caustics_kernel.is_some() || bdpt { pixels } else { 1 };
         let caustics = zeroed("light-traced image", caustic_pixels * 6 * 4)?;
+        // The count (padded to 16 bytes), then a vec4 per pixel.
+        let bdpt_state = zeroed("bidirectional pass", 16 + 16 * if bdpt { pixels } else { 1 })?;
         let camera = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("camera"),
             contents: bytemuck::bytes_of(&scene.camera),
@@ -238,6 +270,7 @@ impl GpuBackend {
             &tangents,
             &sheen_albedo,
             &caustics,
+            &bdpt_state,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -266,8 +299,13 @@ impl GpuBackend {
             seconds_per_sample: None,
             upload_seconds: start.elapsed().as_secs_f64(),
             caustics,
-            camera_sees_only_delta: caustics_kernel.is_some()
+            camera_sees_only_delta: (caustics_kernel.is_some() || bdpt)
                 && crate::integrator::delta_view::camera_sees_only_delta_surfaces(scene, &scene.camera),
+            bdpt_state,
+            bdpt_pass: None,
+            bdpt_truncated: 0,
+            scene_center: scene.scene_center.to_array(),
+            scene_radius: scene.scene_radius,
             caustics_kernel,
             caustic_pass: None,
             ctx,
@@ -286,7 +324,88 @@ impl GpuBackend {
     /// ray counters (`fold_rays_before`): its sample and, when light traced, one light path,
     /// which traces at most as many rays.
     fn ray_bound_per_sample(&self) -> u64 {
+        if self.settings.integrator == Integrator::Bdpt {
+            // Per camera vertex a ray, a light sample and a join to each light vertex but the
+            // first; the light subpath and its joins to the camera.
+            let max = BDPT_MAX_VERTICES as u64;
+            let rays = (max + 1) * crate::integrator::MAX_BOUNCES_GUARD as u64 + 2 * max;
+            return rays.div_ceil(crate::render::MAX_RAYS_PER_SAMPLE);
+        }
         1 + self.light_traces_caustics() as u64
+    }
+
+    /// Queues bidirectional path tracing's pass for sample index `pass` without waiting:
+    /// the splat image cleared, then every pixel's sample traced in bands of `rows` rows.
+    /// `bdpt_resolve` adds it to the film once all of it is queued.
+    fn submit_bdpt_pass(&mut self, pass: u32, rows: u32) {
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bdpt splats") });
+        encoder.clear_buffer(&self.caustics, 0, None);
+        self.ctx.queue.submit([encoder.finish()]);
+        let h = self.settings.height;
+        let mut row = 0;
+        while row < h {
+            let count = rows.max(1).min(h - row);
+            self.submit(&self.kernel.render, self.frame_params(pass, 1, row, count));
+            row += count;
+        }
+        self.bdpt_pass = Some(pass);
+    }
+
+    /// Queues the resolve of the traced pass `pass` over rows `rows`.
+    fn submit_bdpt_resolve(&self, pass: u32, rows: std::ops::Range<u32>) -> wgpu::SubmissionIndex {
+        let resolve = self.kernel.resolve.as_ref().expect("the bidirectional kernel has a resolve pass");
+        self.submit(resolve, self.frame_params(pass, 1, rows.start, rows.end - rows.start))
+    }
+
+    /// Bidirectional path tracing's [`Backend::render`]: pass by pass, each traced in bands
+    /// sized to about [`TARGET_SUBMIT_SECONDS`] and then resolved, up to [`MAX_IN_FLIGHT`]
+    /// passes queued.
+    fn render_bdpt(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let mut in_flight: std::collections::VecDeque<(wgpu::SubmissionIndex, Instant)> = Default::default();
+        for k in sample_offset..sample_offset + samples {
+            let rows = match self.seconds_per_sample {
+                None => h.min(WORKGROUP),
+                Some(rate) => {
+                    let rows = (TARGET_SUBMIT_SECONDS / (rate * w as f64)) as u32;
+                    ((rows / WORKGROUP).max(1) * WORKGROUP).min(h)
+                }
+            };
+            let submitted = Instant::now();
+            self.submit_bdpt_pass(k, rows);
+            in_flight.push_back((self.submit_bdpt_resolve(k, 0..h), submitted));
+            self.bdpt_pass = None;
+            let limit = if self.seconds_per_sample.is_none() { 1 } else { MAX_IN_FLIGHT };
+            while in_flight.len() >= limit {
+                let (index, submitted) = in_flight.pop_front().expect("non-empty");
+                self.wait(index)?;
+                // With passes queued back to back the last wait measures one pass.
+                let rate =
+                    submitted.elapsed().as_secs_f64() / (in_flight.len() + 1) as f64 / (w as f64 * h as f64);
+                self.seconds_per_sample = Some(match self.seconds_per_sample {
+                    Some(old) => 0.5 * old + 0.5 * rate,
+                    None => rate,
+                });
+            }
+        }
+        while let Some((index, _)) = in_flight.pop_front() {
+            self.wait(index)?;
+        }
+        Ok(())
+    }
+
+    /// Folds the device's truncation counter into [`Self::bdpt_truncated`] and clears it.
+    fn fold_bdpt_truncated(&mut self) -> Result<()> {
+        let words = self.read_back::<u32>(&self.bdpt_state)?;
+        self.bdpt_truncated += words[0] as u64;
+        let mut encoder =
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("clear") });
+        encoder.clear_buffer(&self.bdpt_state, 0, Some(16));
+        let index = self.ctx.queue.submit([encoder.finish()]);
+        self.wait(index)
     }
 
     /// Queues the light tracer's pass for sample index `pass` (the image cleared, then
@@ -339,6 +458,9 @@ impl GpuBackend {
             sampler_kind: self.settings.sampler.index(),
             splits: self.settings.splits,
             light_traced_caustics: self.light_traces_caustics() as u32,
+            camera_connections: !self.camera_sees_only_delta as u32,
+            scene_center: self.scene_center,
+            scene_radius: self.scene_radius,
         }
     }
 
@@ -474,6 +596,9 @@ impl Backend for GpuBackend {
     /// the light tracer's pass for that index.
     fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
         self.fold_rays_before(self.ray_bound_per_sample() * samples as u64)?;
+        if self.settings.integrator == Integrator::Bdpt {
+            return self.render_bdpt(sample_offset, samples);
+        }
         let (w, h) = (self.settings.width, self.settings.height);
         // (submission, pixel-samples of work, time submitted)
         let mut in_flight: std::collections::VecDeque<(wgpu::SubmissionIndex, f64, Instant)> =
@@ -561,6 +686,15 @@ impl Backend for GpuBackend {
         if rows.start == 0 {
             self.fold_rays_before(self.ray_bound_per_sample())?;
         }
+        if self.settings.integrator == Integrator::Bdpt {
+            // The whole pass is traced for its first band (its splats land anywhere), in
+            // bands of this band's height; each band is then resolved alone.
+            if self.bdpt_pass != Some(sample_index) {
+                self.submit_bdpt_pass(sample_index, rows.end - rows.start);
+            }
+            let index = self.submit_bdpt_resolve(sample_index, rows);
+            return self.wait(index);
+        }
         if self.light_traces_caustics() && self.caustic_pass != Some(sample_index) {
             // In bands of this band's height: a device slow enough to need bands would take
             // as long over a whole image's light paths in one dispatch.
@@ -575,17 +709,30 @@ impl Backend for GpuBackend {
             self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("reset") });
         encoder.clear_buffer(&self.film, 0, None);
         encoder.clear_buffer(&self.ray_counts, 0, None);
+        encoder.clear_buffer(&self.bdpt_state, 0, Some(16));
         let index = self.ctx.queue.submit([encoder.finish()]);
         self.wait(index)?;
         self.rays_folded = 0;
         self.samples_since_fold = 0;
+        self.bdpt_pass = None;
+        self.bdpt_truncated = 0;
         Ok(())
+    }
+
+    fn bdpt_stats(&mut self) -> Option<BdptStats> {
+        if self.settings.integrator != Integrator::Bdpt {
+            return None;
+        }
+        // A read-back failure is reported by the next render or read of the film.
+        self.fold_bdpt_truncated().ok()?;
+        Some(BdptStats { truncated: self.bdpt_truncated })
     }
 
     fn set_camera(&mut self, camera: &crate::scene::layout::Camera) -> Result<()> {
         self.camera = *camera;
         self.camera_sees_only_delta = false;
         self.caustic_pass = None;
+        self.bdpt_pass = None;
         self.ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(camera));
         Ok(())
     }

@@ -40,14 +40,15 @@ const PATH_FILES: &[ShaderFile] = &[
     ("light_tracing.wgsl", include_str!("../../shaders/light_tracing.wgsl")),
 ];
 
+/// Bidirectional path tracing's entry points (`render`, `bdpt_resolve`).
+const BDPT_FILES: &[ShaderFile] = &[("bdpt.wgsl", include_str!("../../shaders/bdpt.wgsl"))];
+
 /// The files that follow [`COMMON_FILES`] in `integrator`'s kernel: its WGSL twins, named as
 /// its CPU half in `src/integrator/` is.
 pub fn integrator_files(integrator: Integrator) -> &'static [ShaderFile] {
     match integrator {
         Integrator::Path => PATH_FILES,
-        // No WGSL twin yet: `GpuContext` refuses to build its kernel
-        // (`Integrator::has_gpu_kernel`).
-        Integrator::Bdpt => &[],
+        Integrator::Bdpt => BDPT_FILES,
     }
 }
 
@@ -246,6 +247,21 @@ mod tests {
             ("CAUSTIC_FRACTION_BITS", crate::integrator::CAUSTIC_FRACTION_BITS as f64),
             ("CAUSTIC_MAX_FIXED", crate::integrator::CAUSTIC_MAX_FIXED as f64),
         ];
+        let bdpt_files = kernel_files(Integrator::Bdpt);
+        let bdpt =
+            parse_and_validate(&kernel_source(Integrator::Bdpt, UniformTables::default()), &bdpt_files)
+                .unwrap();
+        let bdpt_constant = |name: &str| -> f64 {
+            let (_, c) = bdpt.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name)).unwrap();
+            match bdpt.global_expressions[c.init] {
+                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
+                ref other => panic!("{name}: unexpected initializer {other:?}"),
+            }
+        };
+        let max_vertices = crate::integrator::bdpt::BDPT_MAX_VERTICES as f64;
+        assert_eq!(bdpt_constant("BDPT_MAX_VERTICES"), max_vertices, "BDPT_MAX_VERTICES: WGSL vs Rust");
+        let ring = bdpt_constant("BDPT_CAMERA_RING");
+        assert!(ring > max_vertices && (ring as u32).is_power_of_two(), "BDPT_CAMERA_RING {ring} too small");
         for (name, value) in shared {
             assert_eq!(constant(name), *value, "constant {name}: WGSL vs Rust");
         }

@@ -4,7 +4,7 @@
 //! | integrator | `--integrator` | CPU half | WGSL twin |
 //! |---|---|---|---|
 //! | unidirectional path tracing with next-event estimation and MIS, its caustics optionally left to a light tracer | `path` | [`path`], [`light_tracing`] | `shaders/path.wgsl`, `shaders/light_tracing.wgsl` |
-//! | bidirectional path tracing, every strategy weighted by MIS | `bdpt` | [`bdpt`] | not yet: the GPU backend refuses it |
+//! | bidirectional path tracing, every strategy weighted by MIS | `bdpt` | [`bdpt`] | `shaders/bdpt.wgsl` |
 //!
 //! What every integrator shares lives beside them, each with a WGSL twin of the same name:
 //! * [`interaction`]: the surface record built at every path vertex and the side test of a
@@ -65,12 +65,12 @@ impl Integrator {
         }
     }
 
-    /// Does the GPU backend have a kernel for it? (Bidirectional path tracing's WGSL twin is
-    /// still to come: the GPU backend refuses it, and `--backend auto` renders it on the CPU.)
+    /// Does the GPU backend have a kernel for it? (Every integrator so far has one; one
+    /// still to come may not, and then the GPU backend refuses it and `--backend auto`
+    /// renders it on the CPU.)
     pub fn has_gpu_kernel(self) -> bool {
         match self {
-            Integrator::Path => true,
-            Integrator::Bdpt => false,
+            Integrator::Path | Integrator::Bdpt => true,
         }
     }
 

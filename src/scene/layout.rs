@@ -343,7 +343,7 @@ pub const PROJECTION_PERSPECTIVE: u32 = 0;
 pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
 
 gpu_struct! {
-    /// What one dispatch computes, 60 bytes.
+    /// What one dispatch computes, 80 bytes.
     pub struct FrameParams {
         pub width: u32,
         pub height: u32,
@@ -374,6 +374,13 @@ gpu_struct! {
         /// `render` leaves them out and adds the light tracer's image for its one sample
         /// index (`samples` is then 1); 0: every path is path traced.
         pub light_traced_caustics: u32,
+        /// Bidirectional path tracing: 1 where light vertices may be joined to the camera
+        /// (`crate::integrator::IntegratorSettings::camera_connections`), else 0.
+        pub camera_connections: u32,
+        /// The scene's bounding sphere (`FlatScene::scene_center`, `scene_radius`): where
+        /// bidirectional light subpaths from lights at infinity start.
+        pub scene_center: [f32; 3],
+        pub scene_radius: f32,
     }
 }
 

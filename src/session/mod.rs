@@ -258,6 +258,13 @@ impl Session {
         let mut backend_note = None;
         let choice = match (options.backend, &options.device) {
             (BackendChoice::Auto, Some(_)) => BackendChoice::Gpu,
+            (BackendChoice::Auto, None) if options.record_strategies || options.bdpt_strategy.is_some() => {
+                backend_note = Some(
+                    "backend auto: strategies are recorded or isolated on the CPU backend only; rendering on the CPU backend"
+                        .to_string(),
+                );
+                BackendChoice::Cpu
+            }
             (BackendChoice::Auto, None) if !options.integrator.has_gpu_kernel() => {
                 backend_note = Some(format!(
                     "backend auto: the GPU backend has no {} kernel yet; rendering on the CPU backend",

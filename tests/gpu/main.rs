@@ -2,6 +2,7 @@
 //! a z-test and to rounding with the same seed (here), textured scenes (`textures`), and
 //! kernel variants that must leave the image's bits alone (`kernel_variants`).
 
+mod bdpt;
 #[path = "../common/mod.rs"]
 mod common;
 mod kernel_variants;
@@ -88,7 +89,13 @@ fn gpu_matches_cpu_scene(file: &str, scene: &pathlight::scene::FlatScene, size: 
     let mut gpu_backend = GpuBackend::new(ctx, scene, &settings(size, spp, 2)).unwrap();
     let gpu = common::render(&mut gpu_backend, spp);
     assert_eq!(gpu.total_samples(), (size * size * spp) as u64 - gpu.total_rejected());
-    let c = compare(&cpu, &gpu);
+    assert_comparable(file, &cpu, &gpu, size);
+}
+
+/// Two independent renders `cpu` and `gpu` of scene `file` (`size`²) agree statistically;
+/// on failure their images and the |z| map go to a named folder.
+fn assert_comparable(file: &str, cpu: &Film, gpu: &Film, size: u32) {
+    let c = compare(cpu, gpu);
     let pass_fraction = 1.0 - c.failed as f64 / c.channels as f64;
     eprintln!(
         "{file}: {}/{} pixel channels beyond |z| = {:.2}; global z per channel = {:.2?}; rejected cpu {} gpu {}",
@@ -108,8 +115,8 @@ fn gpu_matches_cpu_scene(file: &str, scene: &pathlight::scene::FlatScene, size: 
     if !ok {
         let dir = failure_dir(file.trim_end_matches(".gltf"));
         let meta = RenderMetadata::default();
-        write_exr(&cpu, &meta, &dir.join("cpu.exr")).unwrap();
-        write_exr(&gpu, &meta, &dir.join("gpu.exr")).unwrap();
+        write_exr(cpu, &meta, &dir.join("cpu.exr")).unwrap();
+        write_exr(gpu, &meta, &dir.join("gpu.exr")).unwrap();
         let abs_z: Vec<Vec3> = c.z_map.iter().map(|z| z.abs() / c.z_threshold as f32).collect();
         common::write_debug_png(&dir.join("z.png"), size as usize, size as usize, &abs_z, 1.0);
         panic!(
