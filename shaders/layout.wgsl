@@ -160,6 +160,13 @@ struct FirstHit {
     triangle: u32,
 }
 
+struct PixelAov {
+    albedo: vec3<f32>,
+    depth: f32,
+    normal: vec3<f32>,
+    hits: u32,
+}
+
 struct DisplayParams {
     film_width: u32,
     film_height: u32,

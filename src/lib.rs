@@ -14,6 +14,7 @@ pub mod bench;
 pub mod bsdf;
 pub mod bvh;
 pub mod cpu;
+pub mod denoise;
 pub mod error;
 pub mod film;
 pub mod geometry;

@@ -40,6 +40,9 @@ pub struct RenderSettings {
     /// Bidirectional path tracing only: keep each strategy's weighted contribution as an
     /// image of its own (`--bdpt-strategies`, `Backend::strategy_images`).
     pub record_strategies: bool,
+    /// Will the AOVs be asked for (`Backend::aovs`; `--aov`, `--denoise`)? The GPU backend
+    /// then holds a buffer of 32 bytes per pixel for them.
+    pub aovs: bool,
 }
 
 impl Default for RenderSettings {
@@ -57,6 +60,7 @@ impl Default for RenderSettings {
             light_tracing: false,
             bdpt_strategy: None,
             record_strategies: false,
+            aovs: false,
         }
     }
 }
@@ -178,6 +182,9 @@ pub trait Backend {
     fn strategy_images(&mut self) -> Result<Option<crate::integrator::bdpt::StrategyImages>> {
         Ok(None)
     }
+    /// Every pixel's auxiliary images (`crate::integrator::aov`), row-major from the top row,
+    /// through the current camera.
+    fn aovs(&mut self) -> Result<Vec<crate::scene::layout::PixelAov>>;
     /// What bidirectional path tracing counted (`None` for other integrators).
     fn bdpt_stats(&mut self) -> Option<crate::integrator::bdpt::BdptStats> {
         None

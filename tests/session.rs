@@ -166,6 +166,9 @@ impl pathlight::Backend for FailingBackend {
     fn rays_traced(&mut self) -> pathlight::Result<u64> {
         self.inner.rays_traced()
     }
+    fn aovs(&mut self) -> pathlight::Result<Vec<pathlight::scene::layout::PixelAov>> {
+        self.inner.aovs()
+    }
     fn render_rows(&mut self, sample_index: u32, rows: std::ops::Range<u32>) -> pathlight::Result<()> {
         self.inner.render_rows(sample_index, rows)
     }

@@ -6,9 +6,11 @@ use std::path::PathBuf;
 
 use clap::ValueEnum;
 
+use pathlight::denoise::Denoiser;
+use pathlight::film::AovSelection;
 use pathlight::integrator::Integrator;
 use pathlight::scene::LoadOptions;
-use pathlight::session::{EnvironmentChoice, SessionOptions};
+use pathlight::session::{EnvironmentChoice, OutputOptions, SessionOptions};
 
 /// `println!` for the command line's standard output: when the reader has gone away
 /// (`pathlight info | head -3`) the process ends quietly with status 141, as a Unix tool
@@ -115,6 +117,19 @@ pub struct SceneArgs {
     /// A constant environment of this linear radiance, e.g. 0.5,0.5,0.5.
     #[arg(long, value_parser = parse_rgb)]
     pub background: Option<glam::Vec3>,
+    /// Auxiliary images in the EXR, comma-separated: albedo (albedo.R/G/B), normal
+    /// (normal.X/Y/Z, world space), depth (depth.Z, distance from the camera), or all.
+    #[arg(long, value_name = "LIST", value_parser = parse_aovs)]
+    pub aov: Option<AovSelection>,
+    /// Denoise the image, guided by its albedo and normal: the EXR's R, G, B and the PNG are
+    /// then the denoised image, the raw mean stays in raw.R/G/B beside its variance, and the
+    /// AOVs that guided it (albedo, normal, depth) are written too.
+    #[arg(long)]
+    pub denoise: bool,
+    /// The denoiser --denoise runs: atrous (built in, on every machine) or oidn (Intel Open
+    /// Image Denoise, in builds with the `oidn` feature).
+    #[arg(long, default_value = "atrous", value_parser = parse_denoiser(), requires = "denoise")]
+    pub denoiser: Denoiser,
 }
 
 impl SceneArgs {
@@ -154,8 +169,31 @@ impl SceneArgs {
                 BackendChoice::Cpu => pathlight::session::BackendChoice::Cpu,
             },
             device: self.device.clone(),
+            outputs: self.output_options(),
         }
     }
+
+    /// The AOVs and the denoiser the outputs carry: with --denoise, the albedo and normal
+    /// that guided it are written too, so that the file can be denoised again.
+    pub fn output_options(&self) -> OutputOptions {
+        let mut aovs = self.aov.unwrap_or_default();
+        if self.denoise {
+            aovs = aovs.with(AovSelection { albedo: true, normal: true, depth: true });
+        }
+        OutputOptions { aovs, denoiser: self.denoise.then_some(self.denoiser) }
+    }
+}
+
+/// Parses `--aov`'s list.
+fn parse_aovs(s: &str) -> Result<AovSelection, String> {
+    AovSelection::parse(s).map_err(|e| e.to_string())
+}
+
+/// `--denoiser`'s parser: the names of [`Denoiser::ALL`].
+pub fn parse_denoiser() -> impl clap::builder::TypedValueParser<Value = Denoiser> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(Denoiser::ALL.map(Denoiser::name))
+        .map(|name| Denoiser::from_name(&name).expect("one of the possible values"))
 }
 
 /// Parses `S,T`.

@@ -203,6 +203,15 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
         report.rejected,
         session.backend_name()
     );
+    let extras = session.extras_timing();
+    if let Some(denoiser) = session.output_options().denoiser {
+        eprintln!(
+            "denoised by {denoiser} in {:.3} s (AOVs rendered in {:.3} s)",
+            extras.denoise_seconds, extras.aov_seconds
+        );
+    } else if session.output_options().aovs.any() {
+        eprintln!("AOVs rendered in {:.3} s", extras.aov_seconds);
+    }
     if let Some(bdpt) = session.bdpt_stats() {
         eprintln!(
             "bdpt: {} light subpath(s) reached the bound of {} vertices and ended there (the weights leave out the strategies it makes impossible)",

@@ -349,6 +349,11 @@ impl Backend for CpuBackend<'_> {
         Ok(self.film.clone())
     }
 
+    fn aovs(&mut self) -> crate::Result<Vec<crate::scene::layout::PixelAov>> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        Ok(crate::integrator::aov::render_aovs(&self.scene, &self.camera, w, h, self.settings.seed))
+    }
+
     fn rays_traced(&mut self) -> crate::Result<u64> {
         Ok(self.rays.iter().sum::<u64>() + self.light_rays)
     }

@@ -8,6 +8,12 @@
 //! independent replicates, which the variance channels cannot hold: their sample variance
 //! over-states the error (2× for a 4,096-spp Cornell box, `bench/history/sampling.md`), so a file read
 //! back without the attribute can only give an upper bound.
+//!
+//! With `--aov` the AOV channels follow ([`super::aov`]); with `--denoise`, `R`, `G`, `B`
+//! hold the denoised image and the raw mean moves to `raw.R`, `raw.G`, `raw.B`
+//! (`pathlight.denoiser` names the denoiser). The variance channels and the predicted relMSE
+//! always describe the raw mean: a denoised image's error, bias included, can only be
+//! measured against a reference.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -87,19 +93,52 @@ pub fn write_rgb_exr(width: usize, height: usize, rgb: &[glam::Vec3], path: &Pat
     })
 }
 
+/// What an EXR holds beside the film's mean and variance ([`write_exr_with`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ExrExtras<'a> {
+    /// AOVs, and which of them to write ([`super::aov`] names their channels).
+    pub aovs: Option<(&'a super::Aovs, super::AovSelection)>,
+    /// A denoised image and the denoiser that made it: it becomes `R`, `G`, `B` (what a
+    /// viewer opens), and the film's raw mean moves to `raw.R`, `raw.G`, `raw.B`, beside
+    /// `variance.*`, which still describe that raw mean.
+    pub denoised: Option<(&'a [glam::Vec3], crate::denoise::Denoiser)>,
+}
+
 pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> {
+    write_exr_with(film, meta, &ExrExtras::default(), path)
+}
+
+/// [`write_exr`] with AOVs and a denoised image.
+pub fn write_exr_with(film: &Film, meta: &RenderMetadata, extras: &ExrExtras, path: &Path) -> Result<()> {
     let size = (film.width as usize, film.height as usize);
     let mean = film.mean();
     let var = film.variance_of_mean();
     let channel = |name: &str, data: Vec<f32>| AnyChannel::new(name, FlatSamples::F32(data));
-    let mut list = vec![
-        channel("R", mean.iter().map(|c| c.x).collect()),
-        channel("G", mean.iter().map(|c| c.y).collect()),
-        channel("B", mean.iter().map(|c| c.z).collect()),
-        channel("variance.R", var.iter().map(|c| c.x).collect()),
-        channel("variance.G", var.iter().map(|c| c.y).collect()),
-        channel("variance.B", var.iter().map(|c| c.z).collect()),
-    ];
+    let rgb = |prefix: &str, plane: &[glam::Vec3]| {
+        ["R", "G", "B"]
+            .iter()
+            .enumerate()
+            .map(|(c, n)| channel(&format!("{prefix}{n}"), plane.iter().map(|v| v[c]).collect()))
+            .collect::<Vec<_>>()
+    };
+    let mut list = Vec::new();
+    match extras.denoised {
+        Some((denoised, _)) => {
+            if denoised.len() != mean.len() {
+                return Err(Error::output(
+                    path,
+                    format!("a denoised image of {} pixels for {}", denoised.len(), mean.len()),
+                ));
+            }
+            list.extend(rgb("", denoised));
+            list.extend(rgb("raw.", &mean));
+        }
+        None => list.extend(rgb("", &mean)),
+    }
+    list.extend(rgb("variance.", &var));
+    if let Some((aovs, selection)) = extras.aovs {
+        list.extend(super::aov::aov_channels(aovs, selection).into_iter().map(|(n, d)| channel(&n, d)));
+    }
     if meta.film_state {
         list.extend(super::state::state_channels(film));
     }
@@ -140,6 +179,12 @@ pub fn write_exr(film: &Film, meta: &RenderMetadata, path: &Path) -> Result<()> 
     if !meta.merged.is_empty() {
         let ranges: Vec<String> = meta.merged.iter().map(|r| format!("{}..{}", r.start, r.end)).collect();
         put("pathlight.mergedRanges", text(ranges.join(",")));
+    }
+    if let Some((_, denoiser)) = extras.denoised {
+        put("pathlight.denoiser", text(denoiser.name().to_string()));
+    }
+    if extras.aovs.is_some() {
+        put("pathlight.aovSamples", text(crate::integrator::aov::AOV_SAMPLES.to_string()));
     }
     if let Some(relmse) = film.predicted_relmse() {
         put(PREDICTED_RELMSE_ATTRIBUTE, AttributeValue::F64(relmse));

@@ -3,6 +3,7 @@
 //!
 //! WGSL twin of the accumulation: `film_add_sample` in `shaders/film.wgsl`.
 
+mod aov;
 pub mod compare;
 mod convergence;
 mod diff_image;
@@ -15,13 +16,17 @@ mod tonemap;
 
 use glam::Vec3;
 
+pub use aov::{aov_channels, aovs_from_channels, AovSelection, Aovs};
 pub use compare::{compare_images, CompareOptions, CompareReport};
 pub use convergence::{convergence_csv, convergence_json, error_against, predicted_relmse, ConvergenceRow};
 pub use diff_image::{write_diff_png, write_zmap_exr};
-pub use exr_io::{read_exr, write_exr, write_rgb_exr, ExrImage, RenderMetadata, PREDICTED_RELMSE_ATTRIBUTE};
+pub use exr_io::{
+    read_exr, write_exr, write_exr_with, write_rgb_exr, ExrExtras, ExrImage, RenderMetadata,
+    PREDICTED_RELMSE_ATTRIBUTE,
+};
 pub use image::LinearImage;
 pub use merge::{merge_files, merge_parts, MergeReport};
-pub use png_io::write_png;
+pub use png_io::{write_png, write_png_rgb};
 pub use state::{read_film, read_film_file, read_film_header, FilmFile, FilmHeader};
 pub use tonemap::{linear_to_srgb, Tonemap};
 

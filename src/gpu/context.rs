@@ -129,9 +129,10 @@ pub(crate) struct KernelModule {
     pipeline_layout: wgpu::PipelineLayout,
 }
 
-/// The kernel's bindings, 0 to 20 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs, and
-/// 20, `bdpt_state` in shaders/bdpt.wgsl, which only that kernel declares).
-const KERNEL_BINDINGS: u32 = 21;
+/// The kernel's bindings, 0 to 21 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs,
+/// 20, `bdpt_state` in shaders/bdpt.wgsl, which only that kernel declares, and 21, `aovs` in
+/// shaders/aov.wgsl).
+const KERNEL_BINDINGS: u32 = 22;
 
 /// A device ready to render, with its compiled kernels.
 pub struct GpuContext {
@@ -147,6 +148,9 @@ pub struct GpuContext {
     /// The light tracer's kernels (`trace_caustics`), by the scene features and table forms
     /// they were built for: built only for scenes whose caustics are light traced.
     caustic_kernels: Mutex<HashMap<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>>,
+    /// The AOV passes (`aov` in shaders/aov.wgsl) per kernel, built on first use: a render
+    /// that writes no AOVs never compiles one.
+    aov_kernels: Mutex<HashMap<KernelKey, Arc<wgpu::ComputePipeline>>>,
 }
 
 /// The scene-feature overrides of shaders/features.wgsl for `features`.
@@ -208,6 +212,7 @@ impl GpuContext {
             modules: Mutex::new(HashMap::new()),
             kernels: Mutex::new(HashMap::new()),
             caustic_kernels: Mutex::new(HashMap::new()),
+            aov_kernels: Mutex::new(HashMap::new()),
         };
         // The path tracer's all-storage module now, so that a kernel the driver rejects
         // fails here.
@@ -252,9 +257,9 @@ impl GpuContext {
         // Binding numbers as declared in shaders/bindings.wgsl and src/gpu/tables.rs. The
         // per-dispatch ones are storage buffers: lavapipe recompiles the kernel for every
         // re-bound uniform that steers its branches (see shaders/bindings.wgsl).
-        // `film`, `first_hits`, `ray_counts`, `caustics` and `bdpt_state`, which the kernels
-        // write.
-        let read_write = [7, 8, 9, 19, 20];
+        // `film`, `first_hits`, `ray_counts`, `caustics`, `bdpt_state` and `aovs`, which the
+        // kernels write.
+        let read_write = [7, 8, 9, 19, 20, 21];
         let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..KERNEL_BINDINGS)
             .map(|binding| {
                 let ty = if tables.is_uniform(binding) {
@@ -358,6 +363,20 @@ impl GpuContext {
         Ok(pipeline)
     }
 
+    /// The AOV pass of `kernel`'s module, specialised to its features, built on first use
+    /// and cached.
+    pub fn aov_kernel(&self, kernel: &Kernel) -> Result<Arc<wgpu::ComputePipeline>> {
+        let mut cache = self.aov_kernels.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(k) = cache.get(&kernel.key) {
+            return Ok(k.clone());
+        }
+        let (pipeline, _) =
+            self.build_pipeline(&kernel.source, "aov", &feature_constants(kernel.key.features))?;
+        let pipeline = Arc::new(pipeline);
+        cache.insert(kernel.key, pipeline.clone());
+        Ok(pipeline)
+    }
+
     /// Builds entry point `entry` of the kernel module `source` with the override values
     /// `constants`; returns it and the seconds it took.
     fn build_pipeline(
@@ -383,6 +402,49 @@ impl GpuContext {
             return Err(Error::Gpu(format!("building the {entry} kernel failed: {e}")));
         }
         Ok((pipeline, start.elapsed().as_secs_f64()))
+    }
+
+    /// Waits for submission `index`, then returns any error wgpu reported.
+    pub(crate) fn wait_for(&self, index: wgpu::SubmissionIndex, timeout: std::time::Duration) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: Some(timeout) })
+            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
+        self.check()
+    }
+
+    /// Copies a GPU buffer back to the host.
+    pub(crate) fn read_buffer<T: bytemuck::Pod>(
+        &self,
+        buffer: &wgpu::Buffer,
+        timeout: std::time::Duration,
+    ) -> Result<Vec<T>> {
+        let size = buffer.size();
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder =
+            self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        let index = self.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait_for(index, timeout)?;
+        rx.recv_timeout(timeout)
+            .map_err(|_| Error::Gpu("reading back from the GPU timed out".into()))?
+            .map_err(|e| Error::Gpu(format!("reading back from the GPU failed: {e}")))?;
+        let data = staging
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|e| Error::Gpu(format!("cannot map the readback buffer: {e}")))?;
+        let out = bytemuck::cast_slice::<u8, T>(&data).to_vec();
+        drop(data);
+        staging.unmap();
+        Ok(out)
     }
 
     /// Returns any error wgpu reported asynchronously since the last check.

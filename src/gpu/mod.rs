@@ -3,6 +3,7 @@
 //! reference.
 
 pub mod context;
+pub mod denoise;
 mod renderer;
 pub mod shader;
 pub mod tables;

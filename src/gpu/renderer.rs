@@ -13,7 +13,7 @@ use crate::film::Film;
 use crate::integrator::bdpt::{BdptStats, BDPT_MAX_VERTICES};
 use crate::integrator::Integrator;
 use crate::render::{Backend, RenderSettings};
-use crate::scene::layout::{FilmPixel, FirstHit, FrameParams, Light};
+use crate::scene::layout::{FilmPixel, FirstHit, FrameParams, Light, PixelAov};
 use crate::scene::FlatScene;
 
 /// Each submit is sized to take about this long: long enough that per-submit overhead is
@@ -38,6 +38,8 @@ pub struct GpuBackend {
     params: wgpu::Buffer,
     film: wgpu::Buffer,
     first_hits: wgpu::Buffer,
+    /// The AOV pass's output: a `PixelAov` per pixel where `settings.aovs`, else one.
+    aovs: wgpu::Buffer,
     ray_counts: wgpu::Buffer,
     settings: RenderSettings,
     light_count: u32,
@@ -219,6 +221,8 @@ impl GpuBackend {
         let film = zeroed("film", pixels * std::mem::size_of::<FilmPixel>() as u64)?;
         let first_hits = zeroed("first-hit buffer", pixels * std::mem::size_of::<FirstHit>() as u64)?;
         let ray_counts = zeroed("ray-count buffer", pixels * 4)?;
+        let aov_pixels = if settings.aovs { pixels } else { 1 };
+        let aovs = zeroed("AOV buffer", aov_pixels * std::mem::size_of::<PixelAov>() as u64)?;
         // Light tracing as the CPU backend decides it (`CpuBackend::light_traces_caustics`).
         let bdpt = settings.integrator == Integrator::Bdpt;
         let caustics_kernel = if settings.integrator == Integrator::Path
@@ -271,6 +275,7 @@ impl GpuBackend {
             &sheen_albedo,
             &caustics,
             &bdpt_state,
+            &aovs,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -290,6 +295,7 @@ impl GpuBackend {
             film,
             first_hits,
             ray_counts,
+            aovs,
             settings: settings.clone(),
             light_count: scene.lights.len() as u32,
             camera: scene.camera,
@@ -496,44 +502,12 @@ impl GpuBackend {
     }
 
     fn wait(&self, index: wgpu::SubmissionIndex) -> Result<()> {
-        self.ctx
-            .device
-            .poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: Some(SUBMIT_TIMEOUT) })
-            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
-        self.ctx.check()
+        self.ctx.wait_for(index, SUBMIT_TIMEOUT)
     }
 
     /// Copies a GPU buffer back to the host.
     fn read_back<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer) -> Result<Vec<T>> {
-        let size = buffer.size();
-        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
-        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
-        let index = self.ctx.queue.submit([encoder.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.wait(index)?;
-        rx.recv_timeout(SUBMIT_TIMEOUT)
-            .map_err(|_| Error::Gpu("reading back from the GPU timed out".into()))?
-            .map_err(|e| Error::Gpu(format!("reading back from the GPU failed: {e}")))?;
-        let data = staging
-            .slice(..)
-            .get_mapped_range()
-            .map_err(|e| Error::Gpu(format!("cannot map the readback buffer: {e}")))?;
-        let out = bytemuck::cast_slice::<u8, T>(&data).to_vec();
-        drop(data);
-        staging.unmap();
-        Ok(out)
+        self.ctx.read_buffer(buffer, SUBMIT_TIMEOUT)
     }
 
     /// What the camera ray of sample 0 of every pixel hits.
@@ -551,7 +525,45 @@ impl GpuBackend {
     }
 }
 
+/// Pixels per submit of the AOV pass: 2¹⁸ pixels of 16 rays each, about 4 M rays, a few
+/// milliseconds on a hardware GPU and about a second on lavapipe.
+const AOV_BAND_PIXELS: u32 = 1 << 18;
+
 impl GpuBackend {
+    /// The AOV pass over the whole image (`integrator::aov`'s twin), read back.
+    fn render_aovs(&mut self) -> Result<Vec<PixelAov>> {
+        if !self.settings.aovs {
+            return Err(Error::Settings(
+                "AOVs were asked of a GPU render not set up for them (RenderSettings::aovs)".into(),
+            ));
+        }
+        let pipeline = self.ctx.aov_kernel(&self.kernel)?;
+        // Textures at the level of detail of a render of AOV_SAMPLES samples, as on the CPU.
+        let cone = crate::scene::camera::camera_ray_cone(
+            &self.camera,
+            self.settings.height,
+            crate::integrator::aov::AOV_SAMPLES,
+        );
+        // In bands of at most AOV_BAND_PIXELS pixels (16 rays each), so that no submit runs
+        // long; they are queued together and waited for once.
+        let (width, height) = (self.settings.width, self.settings.height);
+        let band_rows = (AOV_BAND_PIXELS / width).clamp(1, height);
+        let mut last = None;
+        for row_offset in (0..height).step_by(band_rows as usize) {
+            let rows = band_rows.min(height - row_offset);
+            let params = FrameParams {
+                cone_width: cone.width,
+                cone_spread: cone.spread,
+                ..self.frame_params(0, 1, row_offset, rows)
+            };
+            last = Some(self.submit(&pipeline, params));
+        }
+        if let Some(index) = last {
+            self.wait(index)?;
+        }
+        self.read_back(&self.aovs)
+    }
+
     /// The film on the device (`FilmPixel` per pixel, row-major): a viewer's display pass
     /// reads it in place.
     pub fn film_buffer(&self) -> &wgpu::Buffer {
@@ -726,6 +738,10 @@ impl Backend for GpuBackend {
         // A read-back failure is reported by the next render or read of the film.
         self.fold_bdpt_truncated().ok()?;
         Some(BdptStats { truncated: self.bdpt_truncated })
+    }
+
+    fn aovs(&mut self) -> Result<Vec<PixelAov>> {
+        self.render_aovs()
     }
 
     fn set_camera(&mut self, camera: &crate::scene::layout::Camera) -> Result<()> {

@@ -12,7 +12,7 @@ pub type ShaderFile = (&'static str, &'static str);
 
 /// The files every integrator's kernel is built on, in dependency order: the layout and the
 /// scene's features, the bindings, sampling, geometry, materials, lights, the camera and the
-/// film, then what the integrators share (`src/integrator/`'s twins).
+/// film, then what the integrators share (`src/integrator/`'s twins), the AOV pass among them.
 pub const COMMON_FILES: &[ShaderFile] = &[
     ("layout.wgsl", include_str!("../../shaders/layout.wgsl")),
     ("features.wgsl", include_str!("../../shaders/features.wgsl")),
@@ -31,6 +31,7 @@ pub const COMMON_FILES: &[ShaderFile] = &[
     ("mis.wgsl", include_str!("../../shaders/mis.wgsl")),
     ("roulette.wgsl", include_str!("../../shaders/roulette.wgsl")),
     ("partition.wgsl", include_str!("../../shaders/partition.wgsl")),
+    ("aov.wgsl", include_str!("../../shaders/aov.wgsl")),
 ];
 
 /// The path tracer's entry point (`render`) and its caustic light tracer's

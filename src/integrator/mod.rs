@@ -12,7 +12,9 @@
 //! * [`mis`]: multiple importance sampling weights (`shaders/mis.wgsl`);
 //! * [`roulette`]: Russian roulette and the bounce limits (`shaders/roulette.wgsl`);
 //! * [`partition`]: which paths the path tracer leaves to the light tracer
-//!   (`shaders/partition.wgsl`).
+//!   (`shaders/partition.wgsl`);
+//! * [`aov`]: the auxiliary images (albedo, normal, depth) a denoiser and a compositor read,
+//!   the same whichever integrator renders (`shaders/aov.wgsl`).
 //!
 //! A new integrator (bidirectional path tracing, Metropolis, photon mapping, irradiance
 //! caching, …) adds a variant to [`Integrator`], its CPU half as one file here, and its WGSL
@@ -21,6 +23,7 @@
 //! integrator as it is specialised per scene feature. Both backends dispatch on
 //! [`crate::RenderSettings::integrator`].
 
+pub mod aov;
 pub mod bdpt;
 pub mod delta_view;
 pub mod interaction;

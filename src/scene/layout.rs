@@ -405,6 +405,27 @@ gpu_struct! {
 }
 
 gpu_struct! {
+    /// A pixel's auxiliary images (AOVs) for denoising and compositing, averaged over
+    /// `integrator::aov::AOV_SAMPLES` camera rays (`integrator::aov`, WGSL twin
+    /// `shaders/aov.wgsl`).
+    pub struct PixelAov {
+        /// Mean base colour of the first non-delta surface each ray reaches, followed
+        /// through mirrors and smooth glass (what Open Image Denoise expects); zero for a
+        /// ray that leaves the scene.
+        pub albedo: [f32; 3],
+        /// Mean distance from the camera to the first surface over the rays that hit one;
+        /// 0 where none did (`film::Aovs` makes that +∞).
+        pub depth: f32,
+        /// Mean world-space shading normal (facing the ray) of the surface the albedo was
+        /// read from, not renormalised: shorter where the normals under the pixel disagree;
+        /// zero for a ray that leaves the scene.
+        pub normal: [f32; 3],
+        /// Rays of the pixel that hit a surface.
+        pub hits: u32,
+    }
+}
+
+gpu_struct! {
     /// What the camera ray of sample 0 hit: for first-hit agreement tests and, later, AOVs.
     pub struct FirstHit {
         /// Shading normal (world, facing the camera); zero on a miss.
@@ -467,6 +488,7 @@ pub fn all_layouts() -> Vec<StructLayout> {
         entry::<FrameParams>(),
         entry::<FilmPixel>(),
         entry::<FirstHit>(),
+        entry::<PixelAov>(),
         entry::<DisplayParams>(),
     ]
 }

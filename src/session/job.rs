@@ -210,7 +210,7 @@ impl RenderJob {
             // be read back, then report the failure.
             Err(e) => {
                 let outputs: Vec<String> = self.outputs.iter().map(|o| o.display().to_string()).collect();
-                return Err(match session.write(&self.outputs, self.tonemap, self.exposure) {
+                return Err(match session.write_plain(&self.outputs, self.tonemap, self.exposure) {
                     Ok(()) => Error::Gpu(format!(
                         "{e}; the {} spp completed before it were written to {}",
                         session.spp(),

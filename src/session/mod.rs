@@ -16,8 +16,10 @@
 //! stream depends only on (pixel, sample index, seed).
 
 mod job;
+mod output;
 
 pub use job::{check_outputs, check_target_error, JobEvent, JobReport, RenderJob};
+pub use output::{denoise_film, ExtrasTiming, OutputOptions};
 
 /// Part `i` of `n` of a render of `spp` samples per pixel (`--shard I/N`, a Kubernetes
 /// completion index or a Slurm array task id): the sample indices ⌊i·spp/n⌋..⌊(i+1)·spp/n⌋,
@@ -33,7 +35,7 @@ use std::sync::Arc;
 
 use crate::cpu::CpuBackend;
 use crate::error::{Error, Result};
-use crate::film::{write_exr, write_png, Film, RenderMetadata, Tonemap};
+use crate::film::{write_exr, write_png, Aovs, Film, RenderMetadata, Tonemap};
 use crate::gpu::{enumerate_adapters, GpuBackend, GpuContext};
 use crate::integrator::Integrator;
 use crate::light::EnvironmentDesc;
@@ -104,6 +106,8 @@ pub struct SessionOptions {
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
     pub device: Option<String>,
+    /// What the outputs carry beside the film: AOVs and a denoised image.
+    pub outputs: OutputOptions,
 }
 
 impl SessionOptions {
@@ -128,6 +132,7 @@ impl SessionOptions {
             record_strategies: false,
             backend: BackendChoice::Auto,
             device: None,
+            outputs: OutputOptions::default(),
         }
     }
 }
@@ -155,6 +160,12 @@ pub struct Session {
     /// Does it render a shard (`SessionOptions::samples`)? Its EXR then carries the film's
     /// whole state, for `pathlight merge`.
     shard: bool,
+    /// What the outputs carry beside the film (`SessionOptions::outputs`).
+    output_options: OutputOptions,
+    /// The AOVs of the current camera, once rendered.
+    aov_cache: output::AovCache,
+    /// What the last write's AOVs and denoiser cost.
+    extras_timing: ExtrasTiming,
     /// The next sample index to render: samples `first_sample .. spp_done` are in the film.
     spp_done: u32,
     seconds: f64,
@@ -240,6 +251,7 @@ impl Session {
             splits: options.splits.unwrap_or(1),
             bdpt_strategy: options.bdpt_strategy,
             record_strategies: options.record_strategies,
+            aovs: options.outputs.needs_aovs(),
             ..RenderSettings::default()
         };
         settings.validate()?;
@@ -319,6 +331,9 @@ impl Session {
             gpu_film,
             first_sample: samples.start,
             shard: options.samples.is_some(),
+            output_options: options.outputs,
+            aov_cache: Default::default(),
+            extras_timing: ExtrasTiming::default(),
             spp_done: samples.start,
             seconds: 0.0,
         })
@@ -347,6 +362,9 @@ impl Session {
             gpu_film: None,
             first_sample: 0,
             shard: false,
+            output_options: OutputOptions::default(),
+            aov_cache: Default::default(),
+            extras_timing: ExtrasTiming::default(),
             spp_done: 0,
             seconds: 0.0,
         }
@@ -396,6 +414,7 @@ impl Session {
         self.backend = backend;
         self.gpu_film = gpu_film;
         self.settings = settings;
+        self.aov_cache = Default::default();
         let mut camera = self.camera;
         camera.half_width = camera.half_height * width as f32 / height as f32;
         self.set_camera(&camera)
@@ -486,6 +505,7 @@ impl Session {
     pub fn set_camera(&mut self, camera: &Camera) -> Result<()> {
         self.backend.set_camera(camera)?;
         self.camera = *camera;
+        self.aov_cache = Default::default();
         self.restart()
     }
 
@@ -513,14 +533,90 @@ impl Session {
         })
     }
 
-    /// Writes the film to each of `outputs` (.exr: linear with variance; .png: tone-mapped).
+    /// Writes the film to each of `outputs` (.exr: linear with variance; .png: tone-mapped),
+    /// with the AOVs and the denoised image the session's [`OutputOptions`] ask for.
     pub fn write(&mut self, outputs: &[PathBuf], tonemap: Tonemap, exposure: f32) -> Result<()> {
+        let film = self.backend.film()?;
+        let meta = self.metadata()?;
+        let options = self.output_options;
+        let (extras, timing) = self.extras(&film, &options)?;
+        self.extras_timing = timing;
+        for o in outputs {
+            output::write_output_with(&film, &meta, &extras, options.aovs, o, tonemap, exposure)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the film alone to each of `outputs`, without AOVs or denoising: what a failed
+    /// render keeps (the AOV pass could fail the same way the render did).
+    pub fn write_plain(&mut self, outputs: &[PathBuf], tonemap: Tonemap, exposure: f32) -> Result<()> {
         let film = self.backend.film()?;
         let meta = self.metadata()?;
         for o in outputs {
             write_output(&film, &meta, o, tonemap, exposure)?;
         }
         Ok(())
+    }
+
+    /// What the outputs carry beside the film.
+    pub fn output_options(&self) -> OutputOptions {
+        self.output_options
+    }
+
+    /// Changes what the outputs carry (a viewer that starts showing the denoised image). The
+    /// GPU backend renders AOVs only when opened for them (`SessionOptions::outputs`).
+    pub fn set_output_options(&mut self, options: OutputOptions) -> Result<()> {
+        if options.needs_aovs() && !self.settings.aovs {
+            return Err(Error::Settings(
+                "this session was opened without AOVs: open it with SessionOptions::outputs asking for them"
+                    .into(),
+            ));
+        }
+        self.output_options = options;
+        Ok(())
+    }
+
+    /// The AOVs through the current camera (rendered once per camera).
+    pub fn aovs(&mut self) -> Result<Aovs> {
+        if self.aov_cache.aovs.is_none() {
+            let (w, h) = (self.settings.width, self.settings.height);
+            let pixels = self.backend.aovs()?;
+            self.aov_cache.aovs = Some(Aovs::from_pixels(w, h, &pixels));
+        }
+        Ok(self.aov_cache.aovs.clone().expect("set above"))
+    }
+
+    /// The film's mean denoised by `denoiser` (on a hardware GPU when the session renders
+    /// on one, else on the CPU), and the seconds the AOVs and the denoiser took.
+    pub fn denoised(
+        &mut self,
+        denoiser: crate::denoise::Denoiser,
+    ) -> Result<(Vec<glam::Vec3>, ExtrasTiming)> {
+        let film = self.backend.film()?;
+        let options = OutputOptions { aovs: Default::default(), denoiser: Some(denoiser) };
+        let (extras, timing) = self.extras(&film, &options)?;
+        Ok((extras.denoised.expect("asked for").0, timing))
+    }
+
+    /// What the last [`Session::write`]'s AOVs and denoiser cost.
+    pub fn extras_timing(&self) -> ExtrasTiming {
+        self.extras_timing
+    }
+
+    /// The extras `options` ask for, for `film`.
+    fn extras(&mut self, film: &Film, options: &OutputOptions) -> Result<(output::Extras, ExtrasTiming)> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let backend = &mut self.backend;
+        // The à-trous iterations are image-sized passes: a hardware GPU runs them in
+        // milliseconds, a software one (lavapipe) no faster than the CPU.
+        let gpu = self.gpu.as_deref().filter(|g| g.is_hardware());
+        output::make_extras(
+            film,
+            options,
+            &mut self.aov_cache,
+            || Ok(Aovs::from_pixels(w, h, &backend.aovs()?)),
+            gpu,
+        )
     }
 }
 

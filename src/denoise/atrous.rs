@@ -1,0 +1,223 @@
+//! The built-in denoiser: the edge-avoiding à-trous wavelet filter of Dammertz et al. 2010
+//! ("Edge-Avoiding À-Trous Wavelet Transform for fast Global Illumination Filtering", HPG),
+//! with the variance-steered luminance weight of Schied et al. 2017 (SVGF, "Spatiotemporal
+//! Variance-Guided Filtering", HPG, §4.4–4.5) in place of a fixed colour threshold.
+//!
+//! WGSL twin of each iteration: `atrous_iteration` in `shaders/denoise.wgsl`, run by
+//! `crate::gpu::denoise`; [`prepare`] and [`finish`] run on the host for both.
+//!
+//! 1. **Demodulate** ([`prepare`]): the colour is divided by the albedo AOV where it is not
+//!    black, so the filter smooths irradiance and textures come back sharp when
+//!    [`finish`] multiplies it back (SVGF §4.1); the variance is divided by its square.
+//! 2. **Iterate** [`ITERATIONS`] times with the 5×5 B3-spline kernel h = (1, 4, 6, 4, 1)/16
+//!    spread over taps `2^i` pixels apart: a footprint of 125 px after five, at 25 taps a
+//!    pixel each. Each tap's weight is h times three edge-stopping functions (SVGF eq. 3–5):
+//!    normals (cos^[`SIGMA_NORMAL`]), depth against its local gradient, and luminance against
+//!    [`SIGMA_LUMINANCE`] standard deviations of the centre's noise, the variance prefiltered
+//!    by a 3×3 Gaussian. A pixel's variance is filtered with the squared weights (SVGF eq. 2),
+//!    so that later, wider iterations see the noise that is left and smooth less.
+//! 3. **Remodulate** ([`finish`]).
+//!
+//! Deterministic: every pixel is a fixed sum in a fixed order, whatever the thread count.
+
+use glam::{Vec3, Vec4};
+use rayon::prelude::*;
+
+use super::DenoiseInput;
+
+/// À-trous iterations: taps 1, 2, 4, 8 and 16 pixels apart (SVGF uses five).
+pub const ITERATIONS: u32 = 5;
+/// The luminance weight's width in standard deviations of the centre's noise (SVGF's σ_l).
+pub const SIGMA_LUMINANCE: f32 = 4.0;
+/// The normal weight's exponent (SVGF's σ_n).
+pub const SIGMA_NORMAL: f32 = 128.0;
+/// The depth weight's width in local depth gradients per pixel of offset (SVGF's σ_z).
+pub const SIGMA_DEPTH: f32 = 1.0;
+/// Below this albedo a channel is not demodulated (dividing by it would amplify its noise).
+pub const ALBEDO_DEMODULATION_MIN: f32 = 0.01;
+/// The depth a guide stores where no AOV ray hit a surface (depths are otherwise ≥ 0).
+pub const MISS_DEPTH: f32 = -1.0;
+
+/// The 1-D B3-spline kernel's weights at offsets 0, ±1, ±2.
+const KERNEL: [f32; 3] = [3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
+/// The 3×3 Gaussian the variance is prefiltered with, at offsets 0 and ±1.
+const GAUSSIAN: [f32; 2] = [1.0 / 4.0, 1.0 / 8.0];
+
+/// Rec. 709 luminance.
+pub fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// What the iterations read and write, per pixel.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// Demodulated colour (xyz) and the variance of its luminance (w): what each iteration
+    /// filters.
+    pub signal: Vec<Vec4>,
+    /// Unit normal (xyz; zero where no AOV ray hit) and depth (w; [`MISS_DEPTH`] where none
+    /// hit): the guides.
+    pub guide: Vec<Vec4>,
+    /// Each pixel's depth gradient: the largest depth step to a 4-neighbour that hit too.
+    pub depth_gradient: Vec<f32>,
+    /// What [`finish`] multiplies the filtered colour by: the albedo, 1 where it is black.
+    pub modulation: Vec<Vec3>,
+}
+
+/// Step 1 (module documentation): demodulation and the guides.
+pub fn prepare(input: &DenoiseInput) -> Prepared {
+    let (w, h) = (input.width as usize, input.height as usize);
+    let aovs = input.aovs;
+    let modulation: Vec<Vec3> = aovs
+        .albedo
+        .iter()
+        .map(|a| Vec3::select(a.cmpgt(Vec3::splat(ALBEDO_DEMODULATION_MIN)), *a, Vec3::ONE))
+        .collect();
+    let weights = Vec3::new(0.2126, 0.7152, 0.0722);
+    let signal = (0..w * h)
+        .map(|i| {
+            let m = modulation[i];
+            let var = input.variance[i] / (m * m);
+            (input.color[i] / m).extend((weights * weights).dot(var))
+        })
+        .collect();
+    let guide: Vec<Vec4> = (0..w * h)
+        .map(|i| {
+            let n = aovs.normal[i].try_normalize().unwrap_or(Vec3::ZERO);
+            let z = aovs.depth[i];
+            n.extend(if z.is_finite() { z } else { MISS_DEPTH })
+        })
+        .collect();
+    let depth_gradient = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let z = guide[i].w;
+            if z < 0.0 {
+                return 0.0;
+            }
+            let mut g = 0.0f32;
+            let neighbours = [
+                (x > 0, i.wrapping_sub(1)),
+                (x + 1 < w, i + 1),
+                (y > 0, i.wrapping_sub(w)),
+                (y + 1 < h, i + w),
+            ];
+            for (inside, j) in neighbours {
+                if inside && guide[j].w >= 0.0 {
+                    g = g.max((guide[j].w - z).abs());
+                }
+            }
+            g
+        })
+        .collect();
+    Prepared { signal, guide, depth_gradient, modulation }
+}
+
+/// Step 3 (module documentation): the filtered signal times the albedo.
+pub fn finish(prepared: &Prepared, signal: &[Vec4]) -> Vec<Vec3> {
+    signal.iter().zip(&prepared.modulation).map(|(s, m)| s.truncate() * *m).collect()
+}
+
+/// One à-trous iteration of pixel `(x, y)` with taps `step` pixels apart: its filtered
+/// signal (WGSL twin: `atrous_pixel`).
+#[inline]
+pub fn atrous_pixel(
+    (width, height): (u32, u32),
+    step: i32,
+    (x, y): (i32, i32),
+    signal: &[Vec4],
+    guide: &[Vec4],
+    depth_gradient: &[f32],
+) -> Vec4 {
+    let (w, h) = (width as i32, height as i32);
+    let at = |x: i32, y: i32| (y * w + x) as usize;
+    let centre = at(x, y);
+    let (s_p, g_p, dz_p) = (signal[centre], guide[centre], depth_gradient[centre]);
+    // The centre's noise: its luminance variance prefiltered by a 3×3 Gaussian (SVGF §4.5),
+    // taps outside the image left out and the rest renormalised.
+    let mut var_sum = 0.0f32;
+    let mut var_weight = 0.0f32;
+    for dy in -1i32..=1 {
+        for dx in -1i32..=1 {
+            let (qx, qy) = (x + dx, y + dy);
+            if qx < 0 || qy < 0 || qx >= w || qy >= h {
+                continue;
+            }
+            let k = GAUSSIAN[dx.unsigned_abs() as usize] * GAUSSIAN[dy.unsigned_abs() as usize] * 4.0;
+            var_sum += k * signal[at(qx, qy)].w;
+            var_weight += k;
+        }
+    }
+    let sigma = SIGMA_LUMINANCE * (var_sum / var_weight).max(0.0).sqrt();
+    let l_p = luminance(s_p.truncate());
+    let mut sum = Vec3::ZERO;
+    let mut var = 0.0f32;
+    let mut weight_sum = 0.0f32;
+    for dy in -2i32..=2 {
+        for dx in -2i32..=2 {
+            let (qx, qy) = (x + dx * step, y + dy * step);
+            if qx < 0 || qy < 0 || qx >= w || qy >= h {
+                continue;
+            }
+            let q = at(qx, qy);
+            let (s_q, g_q) = (signal[q], guide[q]);
+            let h_q = KERNEL[dx.unsigned_abs() as usize] * KERNEL[dy.unsigned_abs() as usize];
+            let weight = if q == centre {
+                h_q
+            } else {
+                h_q * edge_stopping(g_p, g_q, dz_p, ((dx.abs() + dy.abs()) * step) as f32, l_p, s_q, sigma)
+            };
+            sum += weight * s_q.truncate();
+            var += weight * weight * s_q.w;
+            weight_sum += weight;
+        }
+    }
+    // The centre's own tap keeps weight_sum ≥ h(0, 0) > 0.
+    (sum / weight_sum).extend(var / (weight_sum * weight_sum))
+}
+
+/// The product of SVGF's three edge-stopping functions (eq. 3–5) between centre guide `g_p`
+/// (depth gradient `dz_p`, luminance `l_p`, luminance tolerance `sigma`) and tap `q`
+/// `offset` pixels away (Manhattan).
+#[inline]
+fn edge_stopping(g_p: Vec4, g_q: Vec4, dz_p: f32, offset: f32, l_p: f32, s_q: Vec4, sigma: f32) -> f32 {
+    let (p_hit, q_hit) = (g_p.w >= 0.0, g_q.w >= 0.0);
+    if p_hit != q_hit {
+        return 0.0;
+    }
+    let mut weight = 1.0;
+    if p_hit {
+        let cos = g_p.truncate().dot(g_q.truncate()).max(0.0);
+        weight *= cos.powf(SIGMA_NORMAL);
+        weight *= (-(g_p.w - g_q.w).abs() / (SIGMA_DEPTH * dz_p * offset + 1e-6 * g_p.w + 1e-12)).exp();
+    }
+    let l_q = luminance(s_q.truncate());
+    weight * (-(l_p - l_q).abs() / (sigma + 1e-10)).exp()
+}
+
+/// One iteration over the whole image, rows in parallel.
+pub fn iterate(width: u32, height: u32, step: i32, prepared: &Prepared, signal: &[Vec4]) -> Vec<Vec4> {
+    let mut out = vec![Vec4::ZERO; signal.len()];
+    out.par_chunks_mut(width as usize).enumerate().for_each(|(y, row)| {
+        for (x, v) in row.iter_mut().enumerate() {
+            *v = atrous_pixel(
+                (width, height),
+                step,
+                (x as i32, y as i32),
+                signal,
+                &prepared.guide,
+                &prepared.depth_gradient,
+            );
+        }
+    });
+    out
+}
+
+/// The whole filter on the CPU (module documentation).
+pub fn denoise(input: &DenoiseInput) -> Vec<Vec3> {
+    let prepared = prepare(input);
+    let mut signal = prepared.signal.clone();
+    for i in 0..ITERATIONS {
+        signal = iterate(input.width, input.height, 1 << i, &prepared, &signal);
+    }
+    finish(&prepared, &signal)
+}
