@@ -23,6 +23,7 @@ fn aov(@builtin(global_invocation_id) gid: vec3<u32>) {
     let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
     var albedo = vec3<f32>(0.0);
     var normal = vec3<f32>(0.0);
+    var emission = vec3<f32>(0.0);
     var depth = 0.0;
     var hits = 0u;
     for (var k = 0u; k < AOV_SAMPLES; k++) {
@@ -49,6 +50,9 @@ fn aov(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (has_non_delta(bsdf) || bounce == AOV_MAX_DELTA_BOUNCES) {
                 albedo += material.base_color;
                 normal += si.frame.z;
+                if (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u) {
+                    emission += material.emission;
+                }
                 break;
             }
             let u_lobe = rng_next_1d();
@@ -65,5 +69,5 @@ fn aov(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (hits > 0u) {
         mean_depth = depth / f32(hits);
     }
-    aovs[y * frame.width + x] = PixelAov(albedo / n, mean_depth, normal / n, hits);
+    aovs[y * frame.width + x] = PixelAov(albedo / n, mean_depth, normal / n, hits, emission / n, 0u);
 }

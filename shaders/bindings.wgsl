@@ -38,6 +38,14 @@
 // a low word, so that atomic adds in any order give the same bits. One unused pixel where
 // the caustics are path traced.
 @group(0) @binding(19) var<storage, read_write> caustics: array<atomic<u32>>;
+// Adaptive sampling (src/sampling/adaptive.rs): pixel i takes the sample indices below
+// sample_budgets[i]. Without it one element, 0xffffffff, which `sample_budget` reads for
+// every pixel.
+@group(0) @binding(22) var<storage, read> sample_budgets: array<u32>;
+
+fn sample_budget(pixel: u32) -> u32 {
+    return sample_budgets[min(pixel, arrayLength(&sample_budgets) - 1u)];
+}
 
 // The dispatch's camera and parameters, copied out of their storage buffers once per
 // invocation by `load_dispatch_constants`, which every entry point calls first. Lavapipe

@@ -18,12 +18,15 @@ struct DenoiseParams {
 @group(0) @binding(1) var<storage, read> signal_in: array<vec4<f32>>;
 // Unit normal (xyz; zero on a miss) and depth (w; MISS_DEPTH on a miss).
 @group(0) @binding(2) var<storage, read> guide: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> depth_gradient: array<f32>;
+// Emission luminance (x), coverage (y), depth gradient (z).
+@group(0) @binding(3) var<storage, read> aux: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> signal_out: array<vec4<f32>>;
 
 const SIGMA_LUMINANCE: f32 = 4.0;
 const SIGMA_NORMAL: f32 = 128.0;
 const SIGMA_DEPTH: f32 = 1.0;
+const SIGMA_EMISSION: f32 = 0.1;
+const SIGMA_COVERAGE: f32 = 1.0 / 16.0;
 
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
@@ -38,7 +41,7 @@ fn gaussian_weight(d: i32) -> f32 {
     return select(1.0 / 8.0, 1.0 / 4.0, d == 0);
 }
 
-fn edge_stopping(g_p: vec4<f32>, g_q: vec4<f32>, dz_p: f32, offset: f32, l_p: f32, s_q: vec4<f32>, sigma: f32) -> f32 {
+fn edge_stopping(g_p: vec4<f32>, a_p: vec4<f32>, g_q: vec4<f32>, a_q: vec4<f32>, offset: f32, l_p: f32, s_q: vec4<f32>, sigma: f32) -> f32 {
     let p_hit = g_p.w >= 0.0;
     let q_hit = g_q.w >= 0.0;
     if (p_hit != q_hit) {
@@ -48,10 +51,12 @@ fn edge_stopping(g_p: vec4<f32>, g_q: vec4<f32>, dz_p: f32, offset: f32, l_p: f3
     if (p_hit) {
         let cos_nq = max(dot(g_p.xyz, g_q.xyz), 0.0);
         weight *= pow(cos_nq, SIGMA_NORMAL);
-        weight *= exp(-abs(g_p.w - g_q.w) / (SIGMA_DEPTH * dz_p * offset + 1e-6 * g_p.w + 1e-12));
+        weight *= exp(-abs(g_p.w - g_q.w) / (SIGMA_DEPTH * a_p.z * offset + 1e-6 * g_p.w + 1e-12));
     }
+    let emission = abs(a_p.x - a_q.x) / (SIGMA_EMISSION * max(a_p.x, a_q.x) + 1e-12);
+    let coverage = abs(a_p.y - a_q.y) / SIGMA_COVERAGE;
     let l_q = luminance(s_q.xyz);
-    return weight * exp(-abs(l_p - l_q) / (sigma + 1e-10));
+    return weight * exp(-abs(l_p - l_q) / (sigma + 1e-10) - emission - coverage);
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -67,7 +72,7 @@ fn atrous_iteration(@builtin(global_invocation_id) gid: vec3<u32>) {
     let centre = u32(y * w + x);
     let s_p = signal_in[centre];
     let g_p = guide[centre];
-    let dz_p = depth_gradient[centre];
+    let a_p = aux[centre];
     var var_sum = 0.0;
     var var_weight = 0.0;
     for (var dy = -1; dy <= 1; dy++) {
@@ -99,7 +104,7 @@ fn atrous_iteration(@builtin(global_invocation_id) gid: vec3<u32>) {
             let h_q = kernel_weight(dx) * kernel_weight(dy);
             var weight = h_q;
             if (q != centre) {
-                weight = h_q * edge_stopping(g_p, guide[q], dz_p, f32((abs(dx) + abs(dy)) * step), l_p, s_q, sigma);
+                weight = h_q * edge_stopping(g_p, a_p, guide[q], aux[q], f32((abs(dx) + abs(dy)) * step), l_p, s_q, sigma);
             }
             sum += weight * s_q.xyz;
             variance += weight * weight * s_q.w;

@@ -165,6 +165,8 @@ struct PixelAov {
     depth: f32,
     normal: vec3<f32>,
     hits: u32,
+    emission: vec3<f32>,
+    _pad0: u32,
 }
 
 struct DisplayParams {

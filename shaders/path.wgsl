@@ -64,6 +64,12 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     let x = px.x;
     let y = px.y;
     let pixel = y * frame.width + x;
+    // Adaptive sampling: the samples of this dispatch below the pixel's budget.
+    let budget = sample_budget(pixel);
+    if (budget <= frame.sample_offset) {
+        return;
+    }
+    let samples = min(frame.samples, budget - frame.sample_offset);
     var p = film[pixel];
     rays_traced = 0u;
     let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
@@ -232,7 +238,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                 }
                 p = film_add_sample(p, x, replicate_of(frame.sample_offset + k));
                 k += 1u;
-                if (k == frame.samples) {
+                if (k == samples) {
                     break;
                 }
                 start_path = true;

@@ -33,6 +33,8 @@ enum Command {
     Compare(cli::compare::CompareArgs),
     /// Merge the parts of one render (`render --shard I/N` or `--samples A..B`) exactly.
     Merge(cli::merge::MergeArgs),
+    /// Denoise an EXR rendered with its AOVs (`render --aov all`), guided by them.
+    Denoise(cli::denoise::DenoiseArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +52,7 @@ fn main() -> ExitCode {
         Command::Info => cli::info::run(),
         Command::Bench(args) => cli::bench::run(args),
         Command::Merge(args) => cli::merge::run(args),
+        Command::Denoise(args) => cli::denoise::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

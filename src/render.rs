@@ -41,8 +41,11 @@ pub struct RenderSettings {
     /// image of its own (`--bdpt-strategies`, `Backend::strategy_images`).
     pub record_strategies: bool,
     /// Will the AOVs be asked for (`Backend::aovs`; `--aov`, `--denoise`)? The GPU backend
-    /// then holds a buffer of 32 bytes per pixel for them.
+    /// then holds a buffer of 48 bytes per pixel for them.
     pub aovs: bool,
+    /// Will per-pixel sample counts be set (`Backend::set_sample_budgets`, `--adaptive`)? The
+    /// GPU backend then holds a buffer of 4 bytes per pixel for them.
+    pub adaptive: bool,
 }
 
 impl Default for RenderSettings {
@@ -61,6 +64,7 @@ impl Default for RenderSettings {
             bdpt_strategy: None,
             record_strategies: false,
             aovs: false,
+            adaptive: false,
         }
     }
 }
@@ -157,6 +161,14 @@ impl RenderSettings {
                 )));
             }
         }
+        if self.adaptive && self.integrator != Integrator::Path {
+            return Err(crate::Error::Settings(format!(
+                "--adaptive renders with --integrator path only, not {}: a bidirectional pass \
+                 normalises its light-to-camera splats by one light subpath per pixel, which a pixel \
+                 that stops would take away",
+                self.integrator
+            )));
+        }
         if !(1..=MAX_SPLITS).contains(&self.splits) {
             return Err(crate::Error::Settings(format!(
                 "--splits must be between 1 and {MAX_SPLITS}, not {}",
@@ -195,6 +207,13 @@ pub trait Backend {
     fn render_rows(&mut self, sample_index: u32, rows: std::ops::Range<u32>) -> Result<()>;
     /// Forgets every sample: the film and the ray counts return to zero.
     fn reset(&mut self) -> Result<()>;
+    /// From now on, pixel i takes sample indices below `budgets[i]` only (adaptive sampling,
+    /// `crate::sampling::adaptive`); `None`: every pixel takes every sample. A backend must
+    /// have been opened with [`RenderSettings::adaptive`].
+    fn set_sample_budgets(&mut self, budgets: Option<&[u32]>) -> Result<()> {
+        let _ = budgets;
+        Err(crate::Error::Settings(format!("the {} backend does not do adaptive sampling", self.name())))
+    }
     /// Renders from now on through `camera` (callers [`Backend::reset`] as well).
     fn set_camera(&mut self, camera: &crate::scene::layout::Camera) -> Result<()>;
 }

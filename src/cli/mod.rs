@@ -31,6 +31,7 @@ macro_rules! out {
 
 pub mod bench;
 pub mod compare;
+pub mod denoise;
 pub mod info;
 pub mod merge;
 pub mod render;
@@ -118,12 +119,13 @@ pub struct SceneArgs {
     #[arg(long, value_parser = parse_rgb)]
     pub background: Option<glam::Vec3>,
     /// Auxiliary images in the EXR, comma-separated: albedo (albedo.R/G/B), normal
-    /// (normal.X/Y/Z, world space), depth (depth.Z, distance from the camera), or all.
+    /// (normal.X/Y/Z, world space), depth (depth.Z, distance from the camera), emission
+    /// (emission.R/G/B and coverage.Y), or all.
     #[arg(long, value_name = "LIST", value_parser = parse_aovs)]
     pub aov: Option<AovSelection>,
     /// Denoise the image, guided by its albedo and normal: the EXR's R, G, B and the PNG are
     /// then the denoised image, the raw mean stays in raw.R/G/B beside its variance, and the
-    /// AOVs that guided it (albedo, normal, depth) are written too.
+    /// AOVs that guided it (albedo, normal, depth, emission) are written too.
     #[arg(long)]
     pub denoise: bool,
     /// The denoiser --denoise runs: atrous (built in, on every machine) or oidn (Intel Open
@@ -170,6 +172,7 @@ impl SceneArgs {
             },
             device: self.device.clone(),
             outputs: self.output_options(),
+            adaptive: None,
         }
     }
 
@@ -178,7 +181,7 @@ impl SceneArgs {
     pub fn output_options(&self) -> OutputOptions {
         let mut aovs = self.aov.unwrap_or_default();
         if self.denoise {
-            aovs = aovs.with(AovSelection { albedo: true, normal: true, depth: true });
+            aovs = aovs.with(AovSelection::ALL);
         }
         OutputOptions { aovs, denoiser: self.denoise.then_some(self.denoiser) }
     }

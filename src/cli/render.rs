@@ -55,6 +55,18 @@ pub struct RenderArgs {
     /// 127.0.0.1:14158); a tev that is not running is a warning, not a failed render.
     #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "HOST:PORT")]
     tev: Option<String>,
+    /// Adaptive sampling: each pixel gets the samples it needs to reach
+    /// --adaptive-threshold, at least --adaptive-min-spp and at most --spp, decided from a
+    /// pilot render with another seed, so that no pixel's mean is biased by its own stopping
+    /// rule. The EXR records each pixel's count (channel sampleCount).
+    #[arg(long)]
+    adaptive: bool,
+    /// The relative standard error of a pixel's mean at which it stops (0.02: 2%).
+    #[arg(long, default_value_t = pathlight::sampling::adaptive::DEFAULT_ADAPTIVE_THRESHOLD, requires = "adaptive")]
+    adaptive_threshold: f32,
+    /// Samples per pixel of the adaptive pilot, and the fewest any pixel gets.
+    #[arg(long, default_value_t = pathlight::sampling::adaptive::DEFAULT_ADAPTIVE_MIN_SPP, requires = "adaptive")]
+    adaptive_min_spp: u32,
     /// With --integrator bdpt: also write each strategy's weighted contribution to
     /// DIR/s{S}-t{T}.exr (S light and T camera vertices; the images sum to the render),
     /// as pbrt-v4's --write-bdpt-strategies does, for seeing which strategy carries what.
@@ -63,9 +75,18 @@ pub struct RenderArgs {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum TonemapChoice {
+pub enum TonemapChoice {
     Clamp,
     Aces,
+}
+
+impl From<TonemapChoice> for Tonemap {
+    fn from(choice: TonemapChoice) -> Tonemap {
+        match choice {
+            TonemapChoice::Clamp => Tonemap::Clamp,
+            TonemapChoice::Aces => Tonemap::Aces,
+        }
+    }
 }
 
 /// Parses `START..END`.
@@ -96,10 +117,7 @@ fn parse_shard(s: &str) -> Result<(u32, u32), String> {
 
 pub fn run(args: RenderArgs) -> Result<(), Error> {
     let mut job = RenderJob {
-        tonemap: match args.tonemap {
-            TonemapChoice::Clamp => Tonemap::Clamp,
-            TonemapChoice::Aces => Tonemap::Aces,
-        },
+        tonemap: args.tonemap.into(),
         exposure: args.exposure,
         log: args.log,
         time_limit: args.time_limit,
@@ -128,6 +146,10 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
     let mut options = args.common.session_options(args.spp);
     options.samples = samples;
     options.record_strategies = args.bdpt_strategies.is_some();
+    options.adaptive = args.adaptive.then_some(pathlight::sampling::adaptive::AdaptiveSettings {
+        threshold: args.adaptive_threshold,
+        min_spp: args.adaptive_min_spp,
+    });
     let mut session = Session::open(&options)?;
     for w in &session.warnings {
         eprintln!("warning: {}: {w}", args.common.scene.display());
@@ -170,12 +192,17 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
     bar.set_position(session.first_sample() as u64);
     bar.set_style(
         ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} spp  {elapsed_precise} elapsed  ETA {eta_precise}",
+            "{bar:40} {pos}/{len} spp  {elapsed_precise} elapsed  ETA {eta_precise}{msg}",
         )
         .expect("static template"),
     );
     let report = job.run(&mut session, &stop, |event| match event {
-        JobEvent::Pass { spp } => bar.set_position(spp as u64),
+        JobEvent::Pass { spp, active } => {
+            bar.set_position(spp as u64);
+            if let Some(share) = active {
+                bar.set_message(format!("  {:.1}% of pixels still sampling", 100.0 * share));
+            }
+        }
         JobEvent::Row { row, against_reference: true } => bar.suspend(|| {
             eprintln!(
                 "{:>6} spp {:>9.3} s  RMSE {:.5}  relMSE {:.5}  predicted relMSE {:.5}",

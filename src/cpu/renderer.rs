@@ -61,6 +61,8 @@ pub struct CpuBackend<'a> {
     /// `--bdpt-strategies`: each strategy's weighted contributions summed over the passes
     /// rendered, and the number of passes.
     strategies: Option<(StrategyImages, u32)>,
+    /// Adaptive sampling: pixel i takes sample indices below `budgets[i]` only.
+    budgets: Option<Vec<u32>>,
 }
 
 /// A bidirectional sample's destination: its own pixel's sum, the t = 1 splats, and each
@@ -105,6 +107,7 @@ impl<'a> CpuBackend<'a> {
             bdpt_pass: None,
             bdpt_stats: BdptStats::default(),
             strategies: settings.record_strategies.then(|| (StrategyImages::new(), 0)),
+            budgets: None,
         }
     }
 
@@ -285,6 +288,7 @@ impl CpuBackend<'_> {
         let cone = crate::scene::camera::camera_ray_cone(camera, height, s.spp);
         let w = width as usize;
         let band = rows.start as usize * w..rows.end.min(height) as usize * w;
+        let budgets = self.budgets.as_deref();
         self.film.pixels[band.clone()]
             .par_chunks_mut(w)
             .zip(self.rays[band].par_chunks_mut(w))
@@ -293,7 +297,8 @@ impl CpuBackend<'_> {
                 let y = rows.start as usize + i;
                 for (x, (pixel, rays)) in row.iter_mut().zip(rays).enumerate() {
                     let light_traced = caustics.map_or(glam::Vec3::ZERO, |image| image[y * w + x]);
-                    for k in samples.clone() {
+                    let end = budgets.map_or(samples.end, |b| samples.end.min(b[y * w + x]));
+                    for k in samples.start..end {
                         let mut sampler = PathSampler::new(s.sampler, x as u32, y as u32, k, seed);
                         let ray =
                             generate_camera_ray(camera, width, height, x as u32, y as u32, sampler.next_2d());
@@ -333,6 +338,15 @@ impl Backend for CpuBackend<'_> {
         if let Some(strategies) = self.strategies.as_mut() {
             *strategies = (StrategyImages::new(), 0);
         }
+        Ok(())
+    }
+
+    fn set_sample_budgets(&mut self, budgets: Option<&[u32]>) -> crate::Result<()> {
+        let pixels = self.settings.width as usize * self.settings.height as usize;
+        if budgets.is_some_and(|b| b.len() != pixels) {
+            return Err(crate::Error::Settings(format!("sample budgets for {pixels} pixels expected")));
+        }
+        self.budgets = budgets.map(<[u32]>::to_vec);
         Ok(())
     }
 

@@ -6,15 +6,21 @@
 //! WGSL twin of each iteration: `atrous_iteration` in `shaders/denoise.wgsl`, run by
 //! `crate::gpu::denoise`; [`prepare`] and [`finish`] run on the host for both.
 //!
-//! 1. **Demodulate** ([`prepare`]): the colour is divided by the albedo AOV where it is not
-//!    black, so the filter smooths irradiance and textures come back sharp when
+//! 1. **Demodulate** ([`prepare`]): the colour is divided by the albedo AOV (at least
+//!    [`ALBEDO_DEMODULATION_MIN`], the same rule for every pixel, so that neighbours mix
+//!    like with like), so the filter smooths irradiance and textures come back sharp when
 //!    [`finish`] multiplies it back (SVGF §4.1); the variance is divided by its square.
 //! 2. **Iterate** [`ITERATIONS`] times with the 5×5 B3-spline kernel h = (1, 4, 6, 4, 1)/16
 //!    spread over taps `2^i` pixels apart: a footprint of 125 px after five, at 25 taps a
 //!    pixel each. Each tap's weight is h times three edge-stopping functions (SVGF eq. 3–5):
 //!    normals (cos^[`SIGMA_NORMAL`]), depth against its local gradient, and luminance against
 //!    [`SIGMA_LUMINANCE`] standard deviations of the centre's noise, the variance prefiltered
-//!    by a 3×3 Gaussian. A pixel's variance is filtered with the squared weights (SVGF eq. 2),
+//!    by a 3×3 Gaussian; and two of pathlight's own, because the guides cannot tell them
+//!    apart otherwise: emission (an emitter and the ceiling around it have the same albedo,
+//!    normal and depth, and a pixel on the emitter's edge has a large variance, so the
+//!    luminance weight alone mixed them: the edge lost 90% of its brightness) and coverage (a
+//!    silhouette pixel that sees the background through part of its footprint).
+//!    A pixel's variance is filtered with the squared weights (SVGF eq. 2),
 //!    so that later, wider iterations see the noise that is left and smooth less.
 //! 3. **Remodulate** ([`finish`]).
 //!
@@ -37,6 +43,11 @@ pub const SIGMA_DEPTH: f32 = 1.0;
 pub const ALBEDO_DEMODULATION_MIN: f32 = 0.01;
 /// The depth a guide stores where no AOV ray hit a surface (depths are otherwise ≥ 0).
 pub const MISS_DEPTH: f32 = -1.0;
+/// The emission weight's width, relative to the larger of the two emissions: a pixel that
+/// covers 10% less of an emitter than its neighbour weighs e⁻¹.
+pub const SIGMA_EMISSION: f32 = 0.1;
+/// The coverage weight's width: one AOV ray in 16 more or less weighs e⁻¹.
+pub const SIGMA_COVERAGE: f32 = 1.0 / 16.0;
 
 /// The 1-D B3-spline kernel's weights at offsets 0, ±1, ±2.
 const KERNEL: [f32; 3] = [3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
@@ -57,8 +68,9 @@ pub struct Prepared {
     /// Unit normal (xyz; zero where no AOV ray hit) and depth (w; [`MISS_DEPTH`] where none
     /// hit): the guides.
     pub guide: Vec<Vec4>,
-    /// Each pixel's depth gradient: the largest depth step to a 4-neighbour that hit too.
-    pub depth_gradient: Vec<f32>,
+    /// The other guides: emission luminance (x), coverage (y), and the depth gradient (z, the
+    /// largest depth step to a 4-neighbour that hit too); w unused.
+    pub aux: Vec<Vec4>,
     /// What [`finish`] multiplies the filtered colour by: the albedo, 1 where it is black.
     pub modulation: Vec<Vec3>,
 }
@@ -67,11 +79,8 @@ pub struct Prepared {
 pub fn prepare(input: &DenoiseInput) -> Prepared {
     let (w, h) = (input.width as usize, input.height as usize);
     let aovs = input.aovs;
-    let modulation: Vec<Vec3> = aovs
-        .albedo
-        .iter()
-        .map(|a| Vec3::select(a.cmpgt(Vec3::splat(ALBEDO_DEMODULATION_MIN)), *a, Vec3::ONE))
-        .collect();
+    let modulation: Vec<Vec3> =
+        aovs.albedo.iter().map(|a| a.max(Vec3::splat(ALBEDO_DEMODULATION_MIN))).collect();
     let weights = Vec3::new(0.2126, 0.7152, 0.0722);
     let signal = (0..w * h)
         .map(|i| {
@@ -87,29 +96,28 @@ pub fn prepare(input: &DenoiseInput) -> Prepared {
             n.extend(if z.is_finite() { z } else { MISS_DEPTH })
         })
         .collect();
-    let depth_gradient = (0..w * h)
+    let aux = (0..w * h)
         .map(|i| {
             let (x, y) = (i % w, i / w);
             let z = guide[i].w;
-            if z < 0.0 {
-                return 0.0;
-            }
             let mut g = 0.0f32;
-            let neighbours = [
-                (x > 0, i.wrapping_sub(1)),
-                (x + 1 < w, i + 1),
-                (y > 0, i.wrapping_sub(w)),
-                (y + 1 < h, i + w),
-            ];
-            for (inside, j) in neighbours {
-                if inside && guide[j].w >= 0.0 {
-                    g = g.max((guide[j].w - z).abs());
+            if z >= 0.0 {
+                let neighbours = [
+                    (x > 0, i.wrapping_sub(1)),
+                    (x + 1 < w, i + 1),
+                    (y > 0, i.wrapping_sub(w)),
+                    (y + 1 < h, i + w),
+                ];
+                for (inside, j) in neighbours {
+                    if inside && guide[j].w >= 0.0 {
+                        g = g.max((guide[j].w - z).abs());
+                    }
                 }
             }
-            g
+            Vec4::new(luminance(aovs.emission[i]), aovs.coverage[i], g, 0.0)
         })
         .collect();
-    Prepared { signal, guide, depth_gradient, modulation }
+    Prepared { signal, guide, aux, modulation }
 }
 
 /// Step 3 (module documentation): the filtered signal times the albedo.
@@ -126,12 +134,12 @@ pub fn atrous_pixel(
     (x, y): (i32, i32),
     signal: &[Vec4],
     guide: &[Vec4],
-    depth_gradient: &[f32],
+    aux: &[Vec4],
 ) -> Vec4 {
     let (w, h) = (width as i32, height as i32);
     let at = |x: i32, y: i32| (y * w + x) as usize;
     let centre = at(x, y);
-    let (s_p, g_p, dz_p) = (signal[centre], guide[centre], depth_gradient[centre]);
+    let (s_p, g_p, a_p) = (signal[centre], guide[centre], aux[centre]);
     // The centre's noise: its luminance variance prefiltered by a 3×3 Gaussian (SVGF §4.5),
     // taps outside the image left out and the rest renormalised.
     let mut var_sum = 0.0f32;
@@ -164,7 +172,8 @@ pub fn atrous_pixel(
             let weight = if q == centre {
                 h_q
             } else {
-                h_q * edge_stopping(g_p, g_q, dz_p, ((dx.abs() + dy.abs()) * step) as f32, l_p, s_q, sigma)
+                let offset = ((dx.abs() + dy.abs()) * step) as f32;
+                h_q * edge_stopping((g_p, a_p), (g_q, aux[q]), offset, l_p, s_q, sigma)
             };
             sum += weight * s_q.truncate();
             var += weight * weight * s_q.w;
@@ -175,11 +184,19 @@ pub fn atrous_pixel(
     (sum / weight_sum).extend(var / (weight_sum * weight_sum))
 }
 
-/// The product of SVGF's three edge-stopping functions (eq. 3–5) between centre guide `g_p`
-/// (depth gradient `dz_p`, luminance `l_p`, luminance tolerance `sigma`) and tap `q`
-/// `offset` pixels away (Manhattan).
+/// The product of SVGF's three edge-stopping functions (eq. 3–5) and the emission and
+/// coverage weights (module documentation) between the centre (guides `g_p`, `a_p`,
+/// luminance `l_p`, luminance tolerance `sigma`) and tap `q` (guides `g_q`, `a_q`, signal
+/// `s_q`) `offset` pixels away (Manhattan).
 #[inline]
-fn edge_stopping(g_p: Vec4, g_q: Vec4, dz_p: f32, offset: f32, l_p: f32, s_q: Vec4, sigma: f32) -> f32 {
+fn edge_stopping(
+    (g_p, a_p): (Vec4, Vec4),
+    (g_q, a_q): (Vec4, Vec4),
+    offset: f32,
+    l_p: f32,
+    s_q: Vec4,
+    sigma: f32,
+) -> f32 {
     let (p_hit, q_hit) = (g_p.w >= 0.0, g_q.w >= 0.0);
     if p_hit != q_hit {
         return 0.0;
@@ -188,10 +205,13 @@ fn edge_stopping(g_p: Vec4, g_q: Vec4, dz_p: f32, offset: f32, l_p: f32, s_q: Ve
     if p_hit {
         let cos = g_p.truncate().dot(g_q.truncate()).max(0.0);
         weight *= cos.powf(SIGMA_NORMAL);
+        let dz_p = a_p.z;
         weight *= (-(g_p.w - g_q.w).abs() / (SIGMA_DEPTH * dz_p * offset + 1e-6 * g_p.w + 1e-12)).exp();
     }
+    let emission = (a_p.x - a_q.x).abs() / (SIGMA_EMISSION * a_p.x.max(a_q.x) + 1e-12);
+    let coverage = (a_p.y - a_q.y).abs() / SIGMA_COVERAGE;
     let l_q = luminance(s_q.truncate());
-    weight * (-(l_p - l_q).abs() / (sigma + 1e-10)).exp()
+    weight * (-(l_p - l_q).abs() / (sigma + 1e-10) - emission - coverage).exp()
 }
 
 /// One iteration over the whole image, rows in parallel.
@@ -205,7 +225,7 @@ pub fn iterate(width: u32, height: u32, step: i32, prepared: &Prepared, signal: 
                 (x as i32, y as i32),
                 signal,
                 &prepared.guide,
-                &prepared.depth_gradient,
+                &prepared.aux,
             );
         }
     });
@@ -219,5 +239,6 @@ pub fn denoise(input: &DenoiseInput) -> Vec<Vec3> {
     for i in 0..ITERATIONS {
         signal = iterate(input.width, input.height, 1 << i, &prepared, &signal);
     }
-    finish(&prepared, &signal)
+    let filtered = finish(&prepared, &signal);
+    super::edges::reconstruct_edges(input, &prepared, &signal, &filtered)
 }

@@ -3,7 +3,9 @@
 //!
 //! EXR channels, named as tev, Blender's compositor and Nuke group them (a layer per prefix):
 //! `albedo.R`, `albedo.G`, `albedo.B`; `normal.X`, `normal.Y`, `normal.Z` (world space);
-//! `depth.Z` (distance from the camera, +∞ where the pixel sees no surface).
+//! `depth.Z` (distance from the camera, +∞ where the pixel sees no surface);
+//! `emission.R`, `emission.G`, `emission.B` (what the surface seen emits towards the camera);
+//! `coverage.Y` (the share of the pixel's AOV rays that hit a surface).
 
 use glam::Vec3;
 
@@ -21,6 +23,11 @@ pub struct Aovs {
     pub normal: Vec<Vec3>,
     /// Mean distance to the first surface; +∞ where no AOV ray hit one.
     pub depth: Vec<f32>,
+    /// Mean emitted radiance of the surface the albedo is read from (`PixelAov::emission`).
+    pub emission: Vec<Vec3>,
+    /// The share of the pixel's AOV rays that hit a surface (`PixelAov::hits` /
+    /// `AOV_SAMPLES`): below 1 on a silhouette against the background.
+    pub coverage: Vec<f32>,
 }
 
 impl Aovs {
@@ -32,6 +39,11 @@ impl Aovs {
             albedo: pixels.iter().map(|p| Vec3::from(p.albedo)).collect(),
             normal: pixels.iter().map(|p| Vec3::from(p.normal)).collect(),
             depth: pixels.iter().map(|p| if p.hits > 0 { p.depth } else { f32::INFINITY }).collect(),
+            emission: pixels.iter().map(|p| Vec3::from(p.emission)).collect(),
+            coverage: pixels
+                .iter()
+                .map(|p| p.hits as f32 / crate::integrator::aov::AOV_SAMPLES as f32)
+                .collect(),
         }
     }
 }
@@ -42,12 +54,15 @@ pub struct AovSelection {
     pub albedo: bool,
     pub normal: bool,
     pub depth: bool,
+    /// Emission and coverage (`emission.*`, `coverage.Y`): what the built-in denoiser reads
+    /// beside the other three.
+    pub emission: bool,
 }
 
 impl AovSelection {
-    pub const ALL: AovSelection = AovSelection { albedo: true, normal: true, depth: true };
+    pub const ALL: AovSelection = AovSelection { albedo: true, normal: true, depth: true, emission: true };
 
-    /// Parses a comma-separated list of `albedo`, `normal`, `depth` (or `all`).
+    /// Parses a comma-separated list of `albedo`, `normal`, `depth`, `emission` (or `all`).
     pub fn parse(list: &str) -> Result<AovSelection> {
         let mut s = AovSelection::default();
         for name in list.split(',').map(str::trim) {
@@ -55,10 +70,11 @@ impl AovSelection {
                 "albedo" => s.albedo = true,
                 "normal" => s.normal = true,
                 "depth" => s.depth = true,
+                "emission" => s.emission = true,
                 "all" => s = AovSelection::ALL,
                 _ => {
                     return Err(Error::Settings(format!(
-                        "--aov: unknown AOV '{name}'; there are: albedo, normal, depth, all"
+                        "--aov: unknown AOV '{name}'; there are: albedo, normal, depth, emission, all"
                     )))
                 }
             }
@@ -67,7 +83,7 @@ impl AovSelection {
     }
 
     pub fn any(self) -> bool {
-        self.albedo || self.normal || self.depth
+        self.albedo || self.normal || self.depth || self.emission
     }
 
     /// The union of two selections.
@@ -76,55 +92,81 @@ impl AovSelection {
             albedo: self.albedo || other.albedo,
             normal: self.normal || other.normal,
             depth: self.depth || other.depth,
+            emission: self.emission || other.emission,
         }
     }
 }
 
 /// The EXR channels of `aovs` that `selection` names, as (name, values).
 pub fn aov_channels(aovs: &Aovs, selection: AovSelection) -> Vec<(String, Vec<f32>)> {
-    let mut out = Vec::new();
-    let mut put = |prefix: &str, names: [&str; 3], plane: &[Vec3]| {
-        for (c, n) in names.iter().enumerate() {
-            out.push((format!("{prefix}.{n}"), plane.iter().map(|v| v[c]).collect()));
-        }
+    let vec3s = |prefix: &str, names: [&str; 3], plane: &[Vec3]| {
+        names
+            .iter()
+            .enumerate()
+            .map(|(c, n)| (format!("{prefix}.{n}"), plane.iter().map(|v| v[c]).collect()))
+            .collect::<Vec<_>>()
     };
+    let mut out = Vec::new();
     if selection.albedo {
-        put("albedo", ["R", "G", "B"], &aovs.albedo);
+        out.extend(vec3s("albedo", ["R", "G", "B"], &aovs.albedo));
     }
     if selection.normal {
-        put("normal", ["X", "Y", "Z"], &aovs.normal);
+        out.extend(vec3s("normal", ["X", "Y", "Z"], &aovs.normal));
     }
     if selection.depth {
         out.push(("depth.Z".to_string(), aovs.depth.clone()));
+    }
+    if selection.emission {
+        out.extend(vec3s("emission", ["R", "G", "B"], &aovs.emission));
+        out.push(("coverage.Y".to_string(), aovs.coverage.clone()));
     }
     out
 }
 
 /// The AOVs an EXR read back holds (channels as [`aov_channels`] writes them); an error
-/// naming `path` and the first channel missing.
+/// naming `path` and the first channel missing or of the wrong size. Without `depth.Z` and
+/// `need_depth` false, depth is +∞ (no surface) everywhere. Emission and coverage are
+/// optional: without them, no emission and full coverage (or none where depth says so).
 pub fn aovs_from_channels(
     path: &std::path::Path,
     width: usize,
     height: usize,
     channels: &std::collections::HashMap<String, Vec<f32>>,
+    need_depth: bool,
 ) -> Result<Aovs> {
+    let n = width * height;
     let plane = |name: &str| -> Result<&Vec<f32>> {
-        channels.get(name).ok_or_else(|| {
-            Error::image(
+        let data = channels.get(name).ok_or_else(|| {
+            Error::image(path, format!("has no {name} channel: render it with --aov all (or --denoise)"))
+        })?;
+        if data.len() != n {
+            return Err(Error::image(
                 path,
-                format!("has no {name} channel: render it with --aov albedo,normal,depth (or --denoise)"),
-            )
-        })
+                format!("its {name} channel has {} values for {n} pixels", data.len()),
+            ));
+        }
+        Ok(data)
     };
     let vec3s = |names: [&str; 3]| -> Result<Vec<Vec3>> {
         let [a, b, c] = [plane(names[0])?, plane(names[1])?, plane(names[2])?];
-        Ok((0..width * height).map(|i| Vec3::new(a[i], b[i], c[i])).collect())
+        Ok((0..n).map(|i| Vec3::new(a[i], b[i], c[i])).collect())
     };
-    Ok(Aovs {
-        width: width as u32,
-        height: height as u32,
-        albedo: vec3s(["albedo.R", "albedo.G", "albedo.B"])?,
-        normal: vec3s(["normal.X", "normal.Y", "normal.Z"])?,
-        depth: plane("depth.Z")?.clone(),
-    })
+    let albedo = vec3s(["albedo.R", "albedo.G", "albedo.B"])?;
+    let normal = vec3s(["normal.X", "normal.Y", "normal.Z"])?;
+    let depth = if need_depth || channels.contains_key("depth.Z") {
+        plane("depth.Z")?.clone()
+    } else {
+        vec![f32::INFINITY; n]
+    };
+    let emission = if channels.contains_key("emission.R") {
+        vec3s(["emission.R", "emission.G", "emission.B"])?
+    } else {
+        vec![Vec3::ZERO; n]
+    };
+    let coverage = if channels.contains_key("coverage.Y") {
+        plane("coverage.Y")?.clone()
+    } else {
+        depth.iter().map(|z| if z.is_finite() { 1.0 } else { 0.0 }).collect()
+    };
+    Ok(Aovs { width: width as u32, height: height as u32, albedo, normal, depth, emission, coverage })
 }

@@ -62,6 +62,9 @@ pub struct RenderMetadata {
     /// Write the film's whole per-pixel state too (`super::state`), so that the image can be
     /// merged with others of the same render (shards and merges).
     pub film_state: bool,
+    /// Adaptive sampling's settings, as `pathlight.adaptive` says them; the EXR then holds
+    /// each pixel's sample count in channel `sampleCount`. `None`: every pixel has `spp()`.
+    pub adaptive: Option<String>,
 }
 
 impl RenderMetadata {
@@ -142,6 +145,12 @@ pub fn write_exr_with(film: &Film, meta: &RenderMetadata, extras: &ExrExtras, pa
     if meta.film_state {
         list.extend(super::state::state_channels(film));
     }
+    if meta.adaptive.is_some() {
+        list.push(AnyChannel::new(
+            "sampleCount",
+            FlatSamples::F32(film.pixels.iter().map(|p| p.count as f32).collect()),
+        ));
+    }
     let channels = AnyChannels::sort(SmallVec::from_vec(list));
     let mut attributes = LayerAttributes {
         software_name: Some(Text::from(concat!("pathlight ", env!("CARGO_PKG_VERSION")))),
@@ -179,6 +188,9 @@ pub fn write_exr_with(film: &Film, meta: &RenderMetadata, extras: &ExrExtras, pa
     if !meta.merged.is_empty() {
         let ranges: Vec<String> = meta.merged.iter().map(|r| format!("{}..{}", r.start, r.end)).collect();
         put("pathlight.mergedRanges", text(ranges.join(",")));
+    }
+    if let Some(adaptive) = &meta.adaptive {
+        put("pathlight.adaptive", text(adaptive.clone()));
     }
     if let Some((_, denoiser)) = extras.denoised {
         put("pathlight.denoiser", text(denoiser.name().to_string()));
@@ -242,4 +254,51 @@ pub fn read_exr(path: &Path) -> Result<ExrImage> {
         .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
         .collect();
     Ok(ExrImage { width: layer.size.width(), height: layer.size.height(), channels, attributes })
+}
+
+/// The prefix of the film-state channels (`super::state`), which a denoised copy drops: its
+/// `R`, `G`, `B` are no longer the film's mean, so it cannot be merged.
+const FILM_STATE_PREFIX: &str = "film.";
+
+/// Writes `dst`: the EXR at `src` with `denoised` as its `R`, `G`, `B` (made by `denoiser`),
+/// the mean it was made from as `raw.R`, `raw.G`, `raw.B` (kept when `src` was itself
+/// denoised), every other channel and attribute as they were, and no film-state channels.
+pub fn write_denoised_copy(src: &Path, denoised: &[glam::Vec3], denoiser: &str, dst: &Path) -> Result<()> {
+    let mut image = read_first_layer(src).map_err(|e| Error::output(src, format!("cannot read EXR: {e}")))?;
+    let layer = &mut image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    if denoised.len() != width * height {
+        return Err(Error::output(
+            dst,
+            format!("a denoised image of {} pixels for {width}×{height}", denoised.len()),
+        ));
+    }
+    let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+    let already_denoised = names.iter().any(|n| n == "raw.R");
+    let mut list: Vec<AnyChannel<FlatSamples>> = Vec::new();
+    for channel in std::mem::take(&mut layer.channel_data.list) {
+        let name = channel.name.to_string();
+        if name.starts_with(FILM_STATE_PREFIX) {
+            continue;
+        }
+        match name.as_str() {
+            "R" | "G" | "B" if already_denoised => {}
+            "R" | "G" | "B" => {
+                list.push(AnyChannel::new(format!("raw.{name}").as_str(), channel.sample_data))
+            }
+            _ => list.push(channel),
+        }
+    }
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        list.push(AnyChannel::new(*name, FlatSamples::F32(denoised.iter().map(|v| v[c]).collect())));
+    }
+    layer.channel_data = AnyChannels::sort(SmallVec::from_vec(list));
+    layer
+        .attributes
+        .other
+        .insert(Text::from("pathlight.denoiser"), AttributeValue::Text(Text::from(denoiser)));
+    layer.attributes.other.remove(&Text::from("pathlight.sceneDigest"));
+    write_atomically(dst, |tmp| {
+        image.write().to_file(tmp).map_err(|e| Error::output(dst, format!("cannot write EXR: {e}")))
+    })
 }

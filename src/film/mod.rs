@@ -21,8 +21,8 @@ pub use compare::{compare_images, CompareOptions, CompareReport};
 pub use convergence::{convergence_csv, convergence_json, error_against, predicted_relmse, ConvergenceRow};
 pub use diff_image::{write_diff_png, write_zmap_exr};
 pub use exr_io::{
-    read_exr, write_exr, write_exr_with, write_rgb_exr, ExrExtras, ExrImage, RenderMetadata,
-    PREDICTED_RELMSE_ATTRIBUTE,
+    read_exr, write_denoised_copy, write_exr, write_exr_with, write_rgb_exr, ExrExtras, ExrImage,
+    RenderMetadata, PREDICTED_RELMSE_ATTRIBUTE,
 };
 pub use image::LinearImage;
 pub use merge::{merge_files, merge_parts, MergeReport};

@@ -203,5 +203,6 @@ fn parse_metadata(path: &Path, attribute: &dyn Fn(&str) -> Result<String>) -> Re
         scene_digest: Some(scene_digest),
         merged,
         film_state: true,
+        adaptive: None,
     })
 }

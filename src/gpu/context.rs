@@ -129,10 +129,10 @@ pub(crate) struct KernelModule {
     pipeline_layout: wgpu::PipelineLayout,
 }
 
-/// The kernel's bindings, 0 to 21 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs,
+/// The kernel's bindings, 0 to 22 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs,
 /// 20, `bdpt_state` in shaders/bdpt.wgsl, which only that kernel declares, and 21, `aovs` in
 /// shaders/aov.wgsl).
-const KERNEL_BINDINGS: u32 = 22;
+const KERNEL_BINDINGS: u32 = 23;
 
 /// A device ready to render, with its compiled kernels.
 pub struct GpuContext {

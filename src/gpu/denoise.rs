@@ -48,7 +48,7 @@ pub fn denoise_atrous(ctx: &GpuContext, input: &DenoiseInput) -> Result<Vec<Vec3
     let read = wgpu::BufferUsages::STORAGE;
     let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
     let guide = storage("denoise guide", bytemuck::cast_slice(&prepared.guide), read);
-    let gradient = storage("denoise depth gradient", bytemuck::cast_slice(&prepared.depth_gradient), read);
+    let aux = storage("denoise aux guides", bytemuck::cast_slice(&prepared.aux), read);
     // Ping-pong between two signal buffers; a parameter buffer per iteration, so that all
     // of them are queued in one submit.
     let signals = [
@@ -72,7 +72,7 @@ pub fn denoise_atrous(ctx: &GpuContext, input: &DenoiseInput) -> Result<Vec<Vec3
                 wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: src.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: guide.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: gradient.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: aux.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: dst.as_entire_binding() },
             ],
         });

@@ -40,6 +40,9 @@ pub struct GpuBackend {
     first_hits: wgpu::Buffer,
     /// The AOV pass's output: a `PixelAov` per pixel where `settings.aovs`, else one.
     aovs: wgpu::Buffer,
+    /// Adaptive sampling's sample count per pixel where `settings.adaptive`, else one
+    /// element, `u32::MAX` (every pixel takes every sample).
+    budgets: wgpu::Buffer,
     ray_counts: wgpu::Buffer,
     settings: RenderSettings,
     light_count: u32,
@@ -223,6 +226,15 @@ impl GpuBackend {
         let ray_counts = zeroed("ray-count buffer", pixels * 4)?;
         let aov_pixels = if settings.aovs { pixels } else { 1 };
         let aovs = zeroed("AOV buffer", aov_pixels * std::mem::size_of::<PixelAov>() as u64)?;
+        // Adaptive sampling's per-pixel sample counts; without it one element, u32::MAX: the
+        // kernel reads the last element for any pixel beyond the array (shaders/bindings.wgsl).
+        let budget_pixels = if settings.adaptive { pixels } else { 1 };
+        check("sample budgets", budget_pixels * 4)?;
+        let budgets = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("sample budgets"),
+            contents: bytemuck::cast_slice(&vec![u32::MAX; budget_pixels as usize]),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
         // Light tracing as the CPU backend decides it (`CpuBackend::light_traces_caustics`).
         let bdpt = settings.integrator == Integrator::Bdpt;
         let caustics_kernel = if settings.integrator == Integrator::Path
@@ -276,6 +288,7 @@ impl GpuBackend {
             &caustics,
             &bdpt_state,
             &aovs,
+            &budgets,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -296,6 +309,7 @@ impl GpuBackend {
             first_hits,
             ray_counts,
             aovs,
+            budgets,
             settings: settings.clone(),
             light_count: scene.lights.len() as u32,
             camera: scene.camera,
@@ -742,6 +756,26 @@ impl Backend for GpuBackend {
 
     fn aovs(&mut self) -> Result<Vec<PixelAov>> {
         self.render_aovs()
+    }
+
+    fn set_sample_budgets(&mut self, budgets: Option<&[u32]>) -> Result<()> {
+        let pixels = self.settings.width as usize * self.settings.height as usize;
+        if !self.settings.adaptive {
+            return Err(Error::Settings(
+                "sample budgets for a GPU render not set up for them (RenderSettings::adaptive)".into(),
+            ));
+        }
+        let unlimited;
+        let budgets = match budgets {
+            Some(b) if b.len() == pixels => b,
+            Some(_) => return Err(Error::Settings(format!("sample budgets for {pixels} pixels expected"))),
+            None => {
+                unlimited = vec![u32::MAX; pixels];
+                &unlimited
+            }
+        };
+        self.ctx.queue.write_buffer(&self.budgets, 0, bytemuck::cast_slice(budgets));
+        Ok(())
     }
 
     fn set_camera(&mut self, camera: &crate::scene::layout::Camera) -> Result<()> {

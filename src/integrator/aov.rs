@@ -17,7 +17,9 @@
 //! by the BSDF's own sampling, up to [`AOV_MAX_DELTA_BOUNCES`] times: the albedo and normal
 //! are those of the first surface with a non-delta lobe, as Open Image Denoise's
 //! documentation asks (the albedo of a perfect mirror says nothing of the noisy reflection
-//! it shows). Depth is the distance to the first surface, mirror or not.
+//! it shows), and so is the emission (what that surface emits towards the ray, for a
+//! denoiser to keep an emitter's edge apart). Depth is the distance to the first surface,
+//! mirror or not.
 
 use glam::Vec3;
 
@@ -26,7 +28,7 @@ use crate::bsdf::GltfBsdf;
 use crate::geometry::spawn_ray;
 use crate::sampling::{PathSampler, SamplerKind};
 use crate::scene::camera::{camera_ray_cone, generate_camera_ray};
-use crate::scene::layout::{Camera, PixelAov};
+use crate::scene::layout::{Camera, PixelAov, MATERIAL_DOUBLE_SIDED};
 use crate::scene::texture::textured_material;
 use crate::scene::FlatScene;
 
@@ -57,7 +59,8 @@ pub fn pixel_aov(
 ) -> PixelAov {
     // Textures are read at the level of detail of a render of AOV_SAMPLES samples.
     let cone = camera_ray_cone(camera, height, AOV_SAMPLES);
-    let (mut albedo, mut normal, mut depth, mut hits) = (Vec3::ZERO, Vec3::ZERO, 0.0f32, 0u32);
+    let (mut albedo, mut normal, mut emission) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+    let (mut depth, mut hits) = (0.0f32, 0u32);
     for k in 0..AOV_SAMPLES {
         let mut rng = PathSampler::new(SamplerKind::Independent, x, y, AOV_SAMPLE_INDEX - k, seed);
         let mut ray = generate_camera_ray(camera, width, height, x, y, rng.next_2d());
@@ -81,6 +84,9 @@ pub fn pixel_aov(
             if bsdf.has_non_delta() || bounce == AOV_MAX_DELTA_BOUNCES {
                 albedo += Vec3::from(material.base_color);
                 normal += si.frame.z;
+                if si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0 {
+                    emission += Vec3::from(material.emission);
+                }
                 break;
             }
             // Both numbers drawn whether or not the BSDF reads the first (the kernel does).
@@ -96,6 +102,8 @@ pub fn pixel_aov(
         depth: if hits > 0 { depth / hits as f32 } else { 0.0 },
         normal: (normal / n).to_array(),
         hits,
+        emission: (emission / n).to_array(),
+        _pad0: 0,
     }
 }
 

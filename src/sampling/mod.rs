@@ -2,6 +2,7 @@
 //!
 //! WGSL twin: `shaders/sampling.wgsl` (same function names).
 
+pub mod adaptive;
 mod alias;
 mod rng;
 mod sobol;

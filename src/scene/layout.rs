@@ -422,6 +422,12 @@ gpu_struct! {
         pub normal: [f32; 3],
         /// Rays of the pixel that hit a surface.
         pub hits: u32,
+        /// Mean emitted radiance of the surface the albedo was read from, where it emits
+        /// towards the ray (the emissive factor times its texture): lets a denoiser keep an
+        /// emitter's edge apart from the surface beside it, which has the same albedo, normal
+        /// and depth.
+        pub emission: [f32; 3],
+        pub _pad0: u32,
     }
 }
 

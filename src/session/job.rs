@@ -41,8 +41,9 @@ pub struct RenderJob {
 
 /// What a running job reports to its caller.
 pub enum JobEvent<'a> {
-    /// A pass ended with this many samples per pixel.
-    Pass { spp: u32 },
+    /// A pass ended with this many samples per pixel (the most any pixel has, under adaptive
+    /// sampling, where `active` is the share of pixels that take more).
+    Pass { spp: u32, active: Option<f64> },
     /// A convergence row was taken (against the reference when there is one).
     Row { row: &'a ConvergenceRow, against_reference: bool },
     /// Something went wrong that does not stop the render (tev went away).
@@ -177,9 +178,21 @@ impl RenderJob {
         let (spp, time_limit, target_error) = (self.spp, self.time_limit, self.target_error);
         let reference = self.reference.take();
         let tev = &mut self.tev;
+        // Adaptive sampling: the pilot first, so that each pass can report the share of
+        // pixels still taking samples (`render_to` would run it too).
+        let mut budgets: Vec<u32> = match session.decide_sample_counts(stop) {
+            Ok(_) => session.sample_budgets().map(<[u32]>::to_vec).unwrap_or_default(),
+            Err(e) => return Err(e),
+        };
+        budgets.sort_unstable();
+        let active = |done: u32| {
+            (!budgets.is_empty()).then(|| {
+                (budgets.len() - budgets.partition_point(|&b| b <= done)) as f64 / budgets.len() as f64
+            })
+        };
         let rendered = session.render_to(spp, stop, |b, done| {
             let seconds = start.elapsed().as_secs_f64();
-            on_event(JobEvent::Pass { spp: done });
+            on_event(JobEvent::Pass { spp: done, active: active(done) });
             let mut stop_now = time_limit.is_some_and(|t| seconds >= t);
             // A log row at 1, 2, 4, … spp when asked for one, the predicted error after every
             // pass when the error target may stop the render.

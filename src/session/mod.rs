@@ -40,6 +40,7 @@ use crate::gpu::{enumerate_adapters, GpuBackend, GpuContext};
 use crate::integrator::Integrator;
 use crate::light::EnvironmentDesc;
 use crate::render::{render_progressive_from, Backend, RenderSettings, RenderStats};
+use crate::sampling::adaptive::AdaptiveSettings;
 use crate::sampling::SamplerKind;
 use crate::scene::layout::Camera;
 use crate::scene::{FlatScene, LoadOptions, Scene, ViewSettings};
@@ -108,6 +109,9 @@ pub struct SessionOptions {
     pub device: Option<String>,
     /// What the outputs carry beside the film: AOVs and a denoised image.
     pub outputs: OutputOptions,
+    /// Adaptive sampling (`--adaptive`): each pixel's sample count, at most `spp`, decided
+    /// from an independent pilot render (`crate::sampling::adaptive`).
+    pub adaptive: Option<AdaptiveSettings>,
 }
 
 impl SessionOptions {
@@ -133,6 +137,7 @@ impl SessionOptions {
             backend: BackendChoice::Auto,
             device: None,
             outputs: OutputOptions::default(),
+            adaptive: None,
         }
     }
 }
@@ -166,6 +171,11 @@ pub struct Session {
     aov_cache: output::AovCache,
     /// What the last write's AOVs and denoiser cost.
     extras_timing: ExtrasTiming,
+    /// Adaptive sampling's settings, and each pixel's sample count once the pilot decided it
+    /// (for the current camera).
+    adaptive: Option<AdaptiveSettings>,
+    budgets: Option<Vec<u32>>,
+    pilot_seconds: f64,
     /// The next sample index to render: samples `first_sample .. spp_done` are in the film.
     spp_done: u32,
     seconds: f64,
@@ -252,9 +262,21 @@ impl Session {
             bdpt_strategy: options.bdpt_strategy,
             record_strategies: options.record_strategies,
             aovs: options.outputs.needs_aovs(),
+            adaptive: options.adaptive.is_some(),
             ..RenderSettings::default()
         };
         settings.validate()?;
+        if let Some(adaptive) = &options.adaptive {
+            adaptive.validate(options.spp)?;
+            if options.samples.is_some() {
+                return Err(Error::Settings(
+                    "--adaptive renders whole images: a part (--samples, --shard) cannot take it yet".into(),
+                ));
+            }
+        }
+        if let Some(denoiser) = options.outputs.denoiser {
+            denoiser.check_available()?;
+        }
         let samples = options.samples.clone().unwrap_or(0..options.spp);
         if samples.start >= samples.end || samples.end > options.spp {
             return Err(Error::Settings(format!(
@@ -334,6 +356,9 @@ impl Session {
             output_options: options.outputs,
             aov_cache: Default::default(),
             extras_timing: ExtrasTiming::default(),
+            adaptive: options.adaptive,
+            budgets: None,
+            pilot_seconds: 0.0,
             spp_done: samples.start,
             seconds: 0.0,
         })
@@ -365,6 +390,9 @@ impl Session {
             output_options: OutputOptions::default(),
             aov_cache: Default::default(),
             extras_timing: ExtrasTiming::default(),
+            adaptive: None,
+            budgets: None,
+            pilot_seconds: 0.0,
             spp_done: 0,
             seconds: 0.0,
         }
@@ -415,6 +443,7 @@ impl Session {
         self.gpu_film = gpu_film;
         self.settings = settings;
         self.aov_cache = Default::default();
+        self.budgets = None;
         let mut camera = self.camera;
         camera.half_width = camera.half_height * width as f32 / height as f32;
         self.set_camera(&camera)
@@ -446,6 +475,21 @@ impl Session {
     ) -> Result<RenderStats> {
         let before = self.seconds;
         let start = std::time::Instant::now();
+        // Adaptive sampling: the pilot decides each pixel's count before the first pass, and
+        // the render ends where the most-sampled pixel does.
+        let mut spp = spp;
+        if self.adaptive.is_some() {
+            // The pilot's time is the render's.
+            let decided = self.decide_sample_counts(stop);
+            if !matches!(decided, Ok(true)) {
+                self.seconds = before + start.elapsed().as_secs_f64();
+            }
+            if !decided? {
+                return Ok(RenderStats { spp: self.spp_done, seconds: self.seconds, interrupted: true });
+            }
+            let most = self.budgets.as_ref().and_then(|b| b.iter().copied().max()).unwrap_or(spp);
+            spp = spp.min(most);
+        }
         // Passes completed, kept even when a later pass fails (a GPU fault or timeout): the
         // film still holds them, and the caller may write them out.
         let mut completed = self.spp_done;
@@ -458,6 +502,65 @@ impl Session {
         self.seconds = before + start.elapsed().as_secs_f64();
         let stats = result?;
         Ok(RenderStats { seconds: self.seconds, ..stats })
+    }
+
+    /// Adaptive sampling: renders the pilot and sets each pixel's sample count, unless done
+    /// for this camera already (`render_to` does it first; a caller that wants the counts
+    /// before the first pass, for its progress display, may call it itself). `false` when
+    /// `stop` ended the pilot; `true` without adaptive sampling.
+    pub fn decide_sample_counts(&mut self, stop: &AtomicBool) -> Result<bool> {
+        let Some(adaptive) = self.adaptive else { return Ok(true) };
+        if self.budgets.is_some() {
+            return Ok(true);
+        }
+        let t = std::time::Instant::now();
+        let pilot = self.pilot(&adaptive, stop)?;
+        self.pilot_seconds = t.elapsed().as_secs_f64();
+        match pilot {
+            Some(budgets) => {
+                self.backend.set_sample_budgets(Some(&budgets))?;
+                self.budgets = Some(budgets);
+                Ok(true)
+            }
+            None => Ok(false),
+        }
+    }
+
+    /// Seconds the last adaptive pilot took (0 without one).
+    pub fn pilot_seconds(&self) -> f64 {
+        self.pilot_seconds
+    }
+
+    /// Adaptive sampling's pilot (`crate::sampling::adaptive`): `min_spp` samples per pixel
+    /// of a render with the pilot's seed on a backend of its own, and the sample counts they
+    /// give; `None` when `stop` ended it first.
+    fn pilot(&mut self, adaptive: &AdaptiveSettings, stop: &AtomicBool) -> Result<Option<Vec<u32>>> {
+        let settings = RenderSettings {
+            seed: crate::sampling::adaptive::pilot_seed(self.settings.seed),
+            aovs: false,
+            adaptive: false,
+            ..self.settings.clone()
+        };
+        let (mut backend, _, _) = make_backend(&self.flat, &settings, self.gpu.as_ref())?;
+        backend.set_camera(&self.camera)?;
+        let stats = crate::render::render_progressive(backend.as_mut(), adaptive.min_spp, stop, |_| {})?;
+        if stats.interrupted {
+            return Ok(None);
+        }
+        let film = backend.film()?;
+        Ok(Some(crate::sampling::adaptive::sample_budgets(&film, adaptive, self.settings.spp)))
+    }
+
+    /// Adaptive sampling: the share of pixels that take sample index `index` (`None` without
+    /// adaptive sampling, or before the pilot decided).
+    pub fn active_share(&self, index: u32) -> Option<f64> {
+        let budgets = self.budgets.as_ref()?;
+        Some(budgets.iter().filter(|&&b| b > index).count() as f64 / budgets.len().max(1) as f64)
+    }
+
+    /// Adaptive sampling: each pixel's sample count, once the pilot has decided them.
+    pub fn sample_budgets(&self) -> Option<&[u32]> {
+        self.budgets.as_deref()
     }
 
     /// Adds the next sample to rows `rows` (bounded work for a viewer); when the band ends
@@ -506,6 +609,7 @@ impl Session {
         self.backend.set_camera(camera)?;
         self.camera = *camera;
         self.aov_cache = Default::default();
+        self.budgets = None;
         self.restart()
     }
 
@@ -530,6 +634,17 @@ impl Session {
             splits: self.settings.splits,
             render_seconds: self.seconds,
             rejected_samples: rejected,
+            adaptive: self.adaptive.map(|a| {
+                let mean = self.budgets.as_ref().map_or(0.0, |b| {
+                    b.iter().map(|&n| n.min(self.spp_done) as f64).sum::<f64>() / b.len().max(1) as f64
+                });
+                format!(
+                    "threshold {} (relative standard error per pixel), pilot of {} spp with seed {}, mean {mean:.1} spp per pixel; sample counts per pixel in channel sampleCount",
+                    a.threshold,
+                    a.min_spp,
+                    crate::sampling::adaptive::pilot_seed(self.settings.seed)
+                )
+            }),
         })
     }
 

@@ -1,0 +1,237 @@
+//! The built-in denoiser's last step: pixels on a geometric edge, reconstructed by a local
+//! first-order regression on the AOVs.
+//!
+//! The à-trous iterations cannot filter a pixel whose footprint straddles two surfaces: its
+//! guides (an average of both sides' normals, albedos, depths, coverage and emission) match
+//! neither side, so every edge-stopping weight rejects its neighbours and it keeps its raw
+//! noise. At 128² that is a quarter of the Cornell box's pixels and, after the iterations,
+//! nearly 90% of its error. But the AOVs are averaged over the same pixel footprint as the
+//! colour, so across an edge both are the same blend of the two sides: the colour is an
+//! affine function of the features there. Fitting c ≈ α + β·(f − f_p) over a window, by
+//! least squares weighted with each neighbour's inverse variance, and taking α, gives the edge
+//! pixel from its well-filtered neighbours on either side. An emitter's edge is left as the
+//! iterations left it (its raw value: the emission weight keeps it apart): how much of a
+//! bright emitter the pixel covers is known best from the render's own stratified samples,
+//! and no function of the other features. This is the first-order
+//! feature regression of Bitterli et al. 2016 (NFOR, §4) and Moon et al. 2014, applied only
+//! where the zero-order filter fails; their cross-validated bandwidth selection is replaced
+//! by the à-trous output's own residual variance as the weight.
+//!
+//! WGSL twin: `edge_pixel` in `shaders/denoise.wgsl`.
+
+use glam::{Vec3, Vec4};
+use rayon::prelude::*;
+
+use super::atrous::{luminance, Prepared};
+use super::DenoiseInput;
+
+/// The regression window's radius: 7 × 7 pixels, enough for a side of an edge to hold a
+/// dozen well-filtered pixels.
+pub const EDGE_RADIUS: i32 = 3;
+/// Unknowns of the regression: the intercept and 10 slopes (image position 2, albedo 3,
+/// normal 3, relative depth, coverage). The position captures the gradients of light
+/// across a surface (a contact shadow), which the other features cannot.
+pub const EDGE_FEATURES: usize = 11;
+/// Ridge weight on the slopes, relative to the summed weight: the features of two surfaces
+/// span only a line, so the system is rank-deficient by design, and the ridge picks the
+/// smallest slopes that fit.
+pub const EDGE_RIDGE: f64 = 1e-3;
+/// A neighbour's variance is floored at this share of (its luminance² + 10⁻²), the relMSE's
+/// denominator: a filtered pixel is not infinitely certain, and its bias is not in its
+/// variance.
+pub const EDGE_VARIANCE_FLOOR: f32 = 1e-3;
+
+/// A fit is taken only within this many of the raw pixel's standard deviations of it.
+pub const EDGE_CONSISTENCY: f32 = 2.0;
+
+/// Is pixel `i` on a geometric edge: does a 4-neighbour's albedo, normal, coverage or
+/// emission differ from its own, or its coverage fall short of whole? (Edges of an emitter
+/// are not: [`near_emitter_edge`].)
+pub fn is_edge(input: &DenoiseInput, i: usize) -> bool {
+    let (w, h) = (input.width as usize, input.height as usize);
+    let a = input.aovs;
+    let (x, y) = (i % w, i / w);
+    let cov = a.coverage[i];
+    if cov > 0.0 && cov < 1.0 {
+        return true;
+    }
+    let neighbours =
+        [(x > 0, i.wrapping_sub(1)), (x + 1 < w, i + 1), (y > 0, i.wrapping_sub(w)), (y + 1 < h, i + w)];
+    neighbours.into_iter().any(|(inside, j)| {
+        inside
+            && ((a.albedo[j] - a.albedo[i]).abs().max_element() > 1e-3
+                || (a.normal[j] - a.normal[i]).abs().max_element() > 1e-3
+                || a.coverage[j] != cov
+                || (a.emission[j] - a.emission[i]).abs().max_element() > 1e-3 * a.emission[i].max_element())
+    })
+}
+
+/// Does the regression window around pixel `i` hold pixels of different emission (module
+/// documentation: such pixels keep the iterations' value)?
+pub fn near_emitter_edge(input: &DenoiseInput, i: usize) -> bool {
+    let (w, h) = (input.width as i32, input.height as i32);
+    let (x, y) = (i as i32 % w, i as i32 / w);
+    let e = input.aovs.emission[i];
+    for qy in (y - EDGE_RADIUS).max(0)..=(y + EDGE_RADIUS).min(h - 1) {
+        for qx in (x - EDGE_RADIUS).max(0)..=(x + EDGE_RADIUS).min(w - 1) {
+            if input.aovs.emission[(qy * w + qx) as usize] != e {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The regression features of pixel `q` relative to pixel `p` (module documentation).
+fn features(input: &DenoiseInput, p: usize, q: usize) -> [f64; EDGE_FEATURES] {
+    let a = input.aovs;
+    let (zp, zq) = (a.depth[p], a.depth[q]);
+    // Depth relative to the centre's, where both see a surface (coverage takes the rest).
+    let dz = if zp.is_finite() && zq.is_finite() && zp > 0.0 { ((zq - zp) / zp) as f64 } else { 0.0 };
+    let da = a.albedo[q] - a.albedo[p];
+    let dn = a.normal[q] - a.normal[p];
+    let (w, r) = (input.width as i64, EDGE_RADIUS as f64);
+    let (dx, dy) = ((q as i64 % w - p as i64 % w) as f64 / r, (q as i64 / w - p as i64 / w) as f64 / r);
+    [
+        1.0,
+        dx,
+        dy,
+        da.x as f64,
+        da.y as f64,
+        da.z as f64,
+        dn.x as f64,
+        dn.y as f64,
+        dn.z as f64,
+        dz,
+        (a.coverage[q] - a.coverage[p]) as f64,
+    ]
+}
+
+/// Solves the symmetric positive-definite system `m x = b` in place by Cholesky
+/// decomposition; `None` if it is not positive definite.
+fn cholesky_solve(
+    m: &mut [[f64; EDGE_FEATURES]; EDGE_FEATURES],
+    b: &mut [[f64; 3]; EDGE_FEATURES],
+) -> Option<()> {
+    let n = EDGE_FEATURES;
+    for j in 0..n {
+        let mut d = m[j][j];
+        for k in 0..j {
+            d -= m[j][k] * m[j][k];
+        }
+        if d <= 0.0 || !d.is_finite() {
+            return None;
+        }
+        let d = d.sqrt();
+        m[j][j] = d;
+        for i in j + 1..n {
+            let mut s = m[i][j];
+            for k in 0..j {
+                s -= m[i][k] * m[j][k];
+            }
+            m[i][j] = s / d;
+        }
+    }
+    for c in 0..3 {
+        for i in 0..n {
+            let mut s = b[i][c];
+            for k in 0..i {
+                s -= m[i][k] * b[k][c];
+            }
+            b[i][c] = s / m[i][i];
+        }
+        for i in (0..n).rev() {
+            let mut s = b[i][c];
+            for k in i + 1..n {
+                s -= m[k][i] * b[k][c];
+            }
+            b[i][c] = s / m[i][i];
+        }
+    }
+    Some(())
+}
+
+/// The edge pixel `p`'s regressed colour from the window around it: each neighbour's
+/// filtered colour `filtered` with its residual luminance variance `filtered_variance`
+/// (remodulated), the centre's own raw colour and variance. `None` where the system is
+/// singular (the caller keeps the filtered value).
+fn regress(input: &DenoiseInput, p: usize, filtered: &[Vec3], filtered_variance: &[f32]) -> Option<Vec3> {
+    let (w, h) = (input.width as i32, input.height as i32);
+    let (x, y) = (p as i32 % w, p as i32 / w);
+    let mut m = [[0.0f64; EDGE_FEATURES]; EDGE_FEATURES];
+    let mut b = [[0.0f64; 3]; EDGE_FEATURES];
+    let mut weight_sum = 0.0f64;
+    for dy in -EDGE_RADIUS..=EDGE_RADIUS {
+        for dx in -EDGE_RADIUS..=EDGE_RADIUS {
+            let (qx, qy) = (x + dx, y + dy);
+            if qx < 0 || qy < 0 || qx >= w || qy >= h {
+                continue;
+            }
+            let q = (qy * w + qx) as usize;
+            let (color, variance) = if q == p {
+                let raw_var = Vec3::new(0.2126, 0.7152, 0.0722).powf(2.0).dot(input.variance[p]);
+                (input.color[p], raw_var)
+            } else {
+                (filtered[q], filtered_variance[q])
+            };
+
+            let l = luminance(color);
+            let weight = 1.0 / (variance.max(EDGE_VARIANCE_FLOOR * (l * l + 1e-2)) as f64);
+            let f = features(input, p, q);
+            for i in 0..EDGE_FEATURES {
+                for j in 0..=i {
+                    m[i][j] += weight * f[i] * f[j];
+                }
+                for c in 0..3 {
+                    b[i][c] += weight * f[i] * color[c] as f64;
+                }
+            }
+            weight_sum += weight;
+        }
+    }
+    for i in 0..EDGE_FEATURES {
+        for j in 0..i {
+            m[j][i] = m[i][j];
+        }
+    }
+    for (i, row) in m.iter_mut().enumerate().skip(1) {
+        row[i] += EDGE_RIDGE * weight_sum;
+    }
+    cholesky_solve(&mut m, &mut b)?;
+    let out = Vec3::new(b[0][0] as f32, b[0][1] as f32, b[0][2] as f32);
+    out.is_finite().then_some(out)
+}
+
+/// Step 4 of the built-in denoiser: `filtered` (the remodulated à-trous output of
+/// `prepared`) with every edge pixel replaced by its regression (module documentation).
+/// Deterministic: each pixel's sums run in a fixed order.
+pub fn reconstruct_edges(
+    input: &DenoiseInput,
+    prepared: &Prepared,
+    signal: &[Vec4],
+    filtered: &[Vec3],
+) -> Vec<Vec3> {
+    let weights = Vec3::new(0.2126, 0.7152, 0.0722);
+    // The residual luminance variance, remodulated: the iterations track it demodulated.
+    let filtered_variance: Vec<f32> =
+        signal.iter().zip(&prepared.modulation).map(|(s, m)| s.w * weights.dot(*m).powi(2)).collect();
+    (0..filtered.len())
+        .into_par_iter()
+        .map(|p| {
+            if is_edge(input, p) && !near_emitter_edge(input, p) {
+                let Some(fit) = regress(input, p, filtered, &filtered_variance) else { return filtered[p] };
+                // The fit assumes the colour affine in the features over the window; where a
+                // corner or a contact shadow bends it, the fit is biased. A fit further from
+                // the pixel's own raw value than its noise explains is not taken.
+                let raw_sd = input.variance[p].max_element().sqrt();
+                if (fit - input.color[p]).abs().max_element() <= EDGE_CONSISTENCY * raw_sd {
+                    fit
+                } else {
+                    input.color[p]
+                }
+            } else {
+                filtered[p]
+            }
+        })
+        .collect()
+}
