@@ -166,7 +166,7 @@ struct PixelAov {
     normal: vec3<f32>,
     hits: u32,
     emission: vec3<f32>,
-    _pad0: u32,
+    rays: u32,
 }
 
 struct DisplayParams {

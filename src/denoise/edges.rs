@@ -9,10 +9,11 @@
 //! colour, so across an edge both are the same blend of the two sides: the colour is an
 //! affine function of the features there. Fitting c ≈ α + β·(f − f_p) over a window, by
 //! least squares weighted with each neighbour's inverse variance, and taking α, gives the edge
-//! pixel from its well-filtered neighbours on either side. An emitter's edge is left as the
-//! iterations left it (its raw value: the emission weight keeps it apart): how much of a
-//! bright emitter the pixel covers is known best from the render's own stratified samples,
-//! and no function of the other features. This is the first-order
+//! pixel from its well-filtered neighbours on either side. Emitted radiance is taken out of
+//! every colour first and the centre's own put back: how much of an emitter a pixel covers
+//! is no function of the other features, and the AOV pass measures it finely on an
+//! emitter's edge (`integrator::aov::AOV_REFINED_SAMPLES`), far better than 16 samples of a
+//! bright emitter do. This is the first-order
 //! feature regression of Bitterli et al. 2016 (NFOR, §4) and Moon et al. 2014, applied only
 //! where the zero-order filter fails; their cross-validated bandwidth selection is replaced
 //! by the à-trous output's own residual variance as the weight.
@@ -45,8 +46,7 @@ pub const EDGE_VARIANCE_FLOOR: f32 = 1e-3;
 pub const EDGE_CONSISTENCY: f32 = 2.0;
 
 /// Is pixel `i` on a geometric edge: does a 4-neighbour's albedo, normal, coverage or
-/// emission differ from its own, or its coverage fall short of whole? (Edges of an emitter
-/// are not: [`near_emitter_edge`].)
+/// emission differ from its own, or its coverage fall short of whole?
 pub fn is_edge(input: &DenoiseInput, i: usize) -> bool {
     let (w, h) = (input.width as usize, input.height as usize);
     let a = input.aovs;
@@ -66,20 +66,23 @@ pub fn is_edge(input: &DenoiseInput, i: usize) -> bool {
     })
 }
 
-/// Does the regression window around pixel `i` hold pixels of different emission (module
-/// documentation: such pixels keep the iterations' value)?
-pub fn near_emitter_edge(input: &DenoiseInput, i: usize) -> bool {
+/// The variance of pixel `p`'s mean from the share of its samples that see an emitter:
+/// f (1 − f) E² / spp, with E the brightest emission (luminance) within the window and f
+/// the pixel's own emission's share of it.
+fn emitter_edge_variance(input: &DenoiseInput, p: usize) -> f32 {
     let (w, h) = (input.width as i32, input.height as i32);
-    let (x, y) = (i as i32 % w, i as i32 / w);
-    let e = input.aovs.emission[i];
+    let (x, y) = (p as i32 % w, p as i32 / w);
+    let mut brightest = 0.0f32;
     for qy in (y - EDGE_RADIUS).max(0)..=(y + EDGE_RADIUS).min(h - 1) {
         for qx in (x - EDGE_RADIUS).max(0)..=(x + EDGE_RADIUS).min(w - 1) {
-            if input.aovs.emission[(qy * w + qx) as usize] != e {
-                return true;
-            }
+            brightest = brightest.max(input.aovs.emission[(qy * w + qx) as usize].max_element());
         }
     }
-    false
+    if brightest <= 0.0 {
+        return 0.0;
+    }
+    let f = (input.aovs.emission[p].max_element() / brightest).clamp(0.0, 1.0);
+    f * (1.0 - f) * brightest * brightest / input.spp.max(1.0)
 }
 
 /// The regression features of pixel `q` relative to pixel `p` (module documentation).
@@ -109,6 +112,7 @@ fn features(input: &DenoiseInput, p: usize, q: usize) -> [f64; EDGE_FEATURES] {
 
 /// Solves the symmetric positive-definite system `m x = b` in place by Cholesky
 /// decomposition; `None` if it is not positive definite.
+#[allow(clippy::needless_range_loop)] // reason: a matrix factorisation reads as its indices
 fn cholesky_solve(
     m: &mut [[f64; EDGE_FEATURES]; EDGE_FEATURES],
     b: &mut [[f64; 3]; EDGE_FEATURES],
@@ -155,6 +159,7 @@ fn cholesky_solve(
 /// filtered colour `filtered` with its residual luminance variance `filtered_variance`
 /// (remodulated), the centre's own raw colour and variance. `None` where the system is
 /// singular (the caller keeps the filtered value).
+#[allow(clippy::needless_range_loop)] // reason: the normal equations' sums read as their indices
 fn regress(input: &DenoiseInput, p: usize, filtered: &[Vec3], filtered_variance: &[f32]) -> Option<Vec3> {
     let (w, h) = (input.width as i32, input.height as i32);
     let (x, y) = (p as i32 % w, p as i32 / w);
@@ -175,6 +180,9 @@ fn regress(input: &DenoiseInput, p: usize, filtered: &[Vec3], filtered_variance:
                 (filtered[q], filtered_variance[q])
             };
 
+            // What the surface seen emits is taken out here and the centre's own put back
+            // below (module documentation).
+            let color = color - input.aovs.emission[q];
             let l = luminance(color);
             let weight = 1.0 / (variance.max(EDGE_VARIANCE_FLOOR * (l * l + 1e-2)) as f64);
             let f = features(input, p, q);
@@ -198,7 +206,7 @@ fn regress(input: &DenoiseInput, p: usize, filtered: &[Vec3], filtered_variance:
         row[i] += EDGE_RIDGE * weight_sum;
     }
     cholesky_solve(&mut m, &mut b)?;
-    let out = Vec3::new(b[0][0] as f32, b[0][1] as f32, b[0][2] as f32);
+    let out = Vec3::new(b[0][0] as f32, b[0][1] as f32, b[0][2] as f32) + input.aovs.emission[p];
     out.is_finite().then_some(out)
 }
 
@@ -218,12 +226,15 @@ pub fn reconstruct_edges(
     (0..filtered.len())
         .into_par_iter()
         .map(|p| {
-            if is_edge(input, p) && !near_emitter_edge(input, p) {
+            if is_edge(input, p) {
                 let Some(fit) = regress(input, p, filtered, &filtered_variance) else { return filtered[p] };
                 // The fit assumes the colour affine in the features over the window; where a
                 // corner or a contact shadow bends it, the fit is biased. A fit further from
                 // the pixel's own raw value than its noise explains is not taken.
-                let raw_sd = input.variance[p].max_element().sqrt();
+                // A pixel on an emitter's edge sees the emitter in a share of its samples:
+                // its own variance estimate misses that when no sample happened to (module
+                // documentation), so the share's binomial variance is added.
+                let raw_sd = (input.variance[p].max_element() + emitter_edge_variance(input, p)).sqrt();
                 if (fit - input.color[p]).abs().max_element() <= EDGE_CONSISTENCY * raw_sd {
                     fit
                 } else {

@@ -19,6 +19,8 @@ pub struct FileInput {
     /// `variance.R`, `variance.G`, `variance.B`; zero where the file has none.
     pub variance: Vec<Vec3>,
     pub aovs: Aovs,
+    /// Samples per pixel (`pathlight.spp`; 1 where the file does not say).
+    pub spp: f32,
 }
 
 impl FileInput {
@@ -30,6 +32,7 @@ impl FileInput {
             color: &self.color,
             variance: &self.variance,
             aovs: &self.aovs,
+            spp: self.spp,
         }
     }
 }
@@ -80,5 +83,6 @@ pub fn read_denoise_input(path: &Path, denoiser: Denoiser) -> Result<FileInput> 
             "its albedo, normal or depth channels hold a NaN or an infinite normal",
         ));
     }
-    Ok(FileInput { width: exr.width as u32, height: exr.height as u32, color, variance, aovs })
+    let spp = exr.attributes.get("pathlight.spp").and_then(|s| s.parse::<f32>().ok()).unwrap_or(1.0).max(1.0);
+    Ok(FileInput { width: exr.width as u32, height: exr.height as u32, color, variance, aovs, spp })
 }

@@ -31,6 +31,8 @@ pub struct DenoiseInput<'a> {
     /// The variance of each pixel's mean ([`crate::film::Film::variance_of_mean`]).
     pub variance: &'a [Vec3],
     pub aovs: &'a Aovs,
+    /// Samples per pixel the colour averages (the mean over pixels where counts differ).
+    pub spp: f32,
 }
 
 impl DenoiseInput<'_> {

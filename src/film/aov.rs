@@ -42,7 +42,7 @@ impl Aovs {
             emission: pixels.iter().map(|p| Vec3::from(p.emission)).collect(),
             coverage: pixels
                 .iter()
-                .map(|p| p.hits as f32 / crate::integrator::aov::AOV_SAMPLES as f32)
+                .map(|p| if p.rays > 0 { p.hits as f32 / p.rays as f32 } else { 0.0 })
                 .collect(),
         }
     }

@@ -129,10 +129,18 @@ pub(crate) struct KernelModule {
     pipeline_layout: wgpu::PipelineLayout,
 }
 
-/// The kernel's bindings, 0 to 22 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs,
-/// 20, `bdpt_state` in shaders/bdpt.wgsl, which only that kernel declares, and 21, `aovs` in
-/// shaders/aov.wgsl).
-const KERNEL_BINDINGS: u32 = 23;
+/// The kernel's bindings, 0 to 23 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs,
+/// 20, `bdpt_state` in shaders/bdpt.wgsl, which only that kernel declares, and 21 and 23,
+/// `aovs` and `aov_refine_list` in shaders/aov.wgsl).
+const KERNEL_BINDINGS: u32 = 24;
+
+/// The AOV passes' pipelines (shaders/aov.wgsl): the first pass over bands of the image, and
+/// the refinement of a list of pixels.
+#[derive(Clone)]
+pub struct AovKernels {
+    pub first: Arc<wgpu::ComputePipeline>,
+    pub refine: Arc<wgpu::ComputePipeline>,
+}
 
 /// A device ready to render, with its compiled kernels.
 pub struct GpuContext {
@@ -148,9 +156,9 @@ pub struct GpuContext {
     /// The light tracer's kernels (`trace_caustics`), by the scene features and table forms
     /// they were built for: built only for scenes whose caustics are light traced.
     caustic_kernels: Mutex<HashMap<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>>,
-    /// The AOV passes (`aov` in shaders/aov.wgsl) per kernel, built on first use: a render
-    /// that writes no AOVs never compiles one.
-    aov_kernels: Mutex<HashMap<KernelKey, Arc<wgpu::ComputePipeline>>>,
+    /// The AOV passes (`aov` and `aov_refine` in shaders/aov.wgsl) per kernel, built on
+    /// first use: a render that writes no AOVs never compiles one.
+    aov_kernels: Mutex<HashMap<KernelKey, AovKernels>>,
 }
 
 /// The scene-feature overrides of shaders/features.wgsl for `features`.
@@ -363,18 +371,19 @@ impl GpuContext {
         Ok(pipeline)
     }
 
-    /// The AOV pass of `kernel`'s module, specialised to its features, built on first use
+    /// The AOV passes of `kernel`'s module, specialised to its features, built on first use
     /// and cached.
-    pub fn aov_kernel(&self, kernel: &Kernel) -> Result<Arc<wgpu::ComputePipeline>> {
+    pub fn aov_kernels(&self, kernel: &Kernel) -> Result<AovKernels> {
         let mut cache = self.aov_kernels.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(k) = cache.get(&kernel.key) {
             return Ok(k.clone());
         }
-        let (pipeline, _) =
-            self.build_pipeline(&kernel.source, "aov", &feature_constants(kernel.key.features))?;
-        let pipeline = Arc::new(pipeline);
-        cache.insert(kernel.key, pipeline.clone());
-        Ok(pipeline)
+        let constants = feature_constants(kernel.key.features);
+        let (first, _) = self.build_pipeline(&kernel.source, "aov", &constants)?;
+        let (refine, _) = self.build_pipeline(&kernel.source, "aov_refine", &constants)?;
+        let kernels = AovKernels { first: Arc::new(first), refine: Arc::new(refine) };
+        cache.insert(kernel.key, kernels.clone());
+        Ok(kernels)
     }
 
     /// Builds entry point `entry` of the kernel module `source` with the override values

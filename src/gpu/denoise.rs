@@ -1,5 +1,6 @@
 //! The built-in denoiser's iterations on the GPU (`shaders/denoise.wgsl`; CPU twin:
-//! `crate::denoise::atrous`, whose `prepare` and `finish` run on the host for both).
+//! `crate::denoise::atrous`, whose `prepare` and `finish`, and the edge regression
+//! `crate::denoise::edges`, run on the host for both).
 
 use std::time::Duration;
 
@@ -87,5 +88,8 @@ pub fn denoise_atrous(ctx: &GpuContext, input: &DenoiseInput) -> Result<Vec<Vec3
     let index = ctx.queue.submit([encoder.finish()]);
     ctx.wait_for(index, ITERATION_TIMEOUT * ITERATIONS)?;
     let out: Vec<Vec4> = ctx.read_buffer(&signals[ITERATIONS as usize % 2], ITERATION_TIMEOUT)?;
-    Ok(finish(&prepared, &out))
+    // The edge regression touches a few per cent of the pixels and solves an 11 × 11 system
+    // in f64 for each: it runs on the host for both backends (`crate::denoise::edges`).
+    let filtered = finish(&prepared, &out);
+    Ok(crate::denoise::edges::reconstruct_edges(input, &prepared, &out, &filtered))
 }

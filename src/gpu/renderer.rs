@@ -40,6 +40,9 @@ pub struct GpuBackend {
     first_hits: wgpu::Buffer,
     /// The AOV pass's output: a `PixelAov` per pixel where `settings.aovs`, else one.
     aovs: wgpu::Buffer,
+    /// The pixels the AOV pass refines (`aov_refine_list`), as many as pixels where
+    /// `settings.aovs`, else one.
+    aov_refine_list: wgpu::Buffer,
     /// Adaptive sampling's sample count per pixel where `settings.adaptive`, else one
     /// element, `u32::MAX` (every pixel takes every sample).
     budgets: wgpu::Buffer,
@@ -226,6 +229,7 @@ impl GpuBackend {
         let ray_counts = zeroed("ray-count buffer", pixels * 4)?;
         let aov_pixels = if settings.aovs { pixels } else { 1 };
         let aovs = zeroed("AOV buffer", aov_pixels * std::mem::size_of::<PixelAov>() as u64)?;
+        let aov_refine_list = zeroed("AOV refinement list", aov_pixels * 4)?;
         // Adaptive sampling's per-pixel sample counts; without it one element, u32::MAX: the
         // kernel reads the last element for any pixel beyond the array (shaders/bindings.wgsl).
         let budget_pixels = if settings.adaptive { pixels } else { 1 };
@@ -289,6 +293,7 @@ impl GpuBackend {
             &bdpt_state,
             &aovs,
             &budgets,
+            &aov_refine_list,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -309,6 +314,7 @@ impl GpuBackend {
             first_hits,
             ray_counts,
             aovs,
+            aov_refine_list,
             budgets,
             settings: settings.clone(),
             light_count: scene.lights.len() as u32,
@@ -551,7 +557,7 @@ impl GpuBackend {
                 "AOVs were asked of a GPU render not set up for them (RenderSettings::aovs)".into(),
             ));
         }
-        let pipeline = self.ctx.aov_kernel(&self.kernel)?;
+        let kernels = self.ctx.aov_kernels(&self.kernel)?;
         // Textures at the level of detail of a render of AOV_SAMPLES samples, as on the CPU.
         let cone = crate::scene::camera::camera_ray_cone(
             &self.camera,
@@ -570,12 +576,55 @@ impl GpuBackend {
                 cone_spread: cone.spread,
                 ..self.frame_params(0, 1, row_offset, rows)
             };
-            last = Some(self.submit(&pipeline, params));
+            last = Some(self.submit(&kernels.first, params));
+        }
+        if let Some(index) = last {
+            self.wait(index)?;
+        }
+        // The second pass over the pixels the first one finds on silhouettes and emitters'
+        // edges, decided on the host as on the CPU (`pixels_to_refine`).
+        let first = self.read_back::<PixelAov>(&self.aovs)?;
+        let refine = crate::integrator::aov::pixels_to_refine(width, height, &first);
+        if refine.is_empty() {
+            return Ok(first);
+        }
+        self.ctx.queue.write_buffer(&self.aov_refine_list, 0, bytemuck::cast_slice(&refine));
+        // Slices of the list of at most AOV_BAND_PIXELS / 16 pixels (256 rays each).
+        let slice = AOV_BAND_PIXELS / 16;
+        let mut last = None;
+        for start in (0..refine.len() as u32).step_by(slice as usize) {
+            let count = slice.min(refine.len() as u32 - start);
+            let params = FrameParams {
+                cone_width: cone.width,
+                cone_spread: cone.spread,
+                ..self.frame_params(start, count, 0, 1)
+            };
+            last = Some(self.submit_list(&kernels.refine, params));
         }
         if let Some(index) = last {
             self.wait(index)?;
         }
         self.read_back(&self.aovs)
+    }
+
+    /// [`Self::submit`] for a one-dimensional dispatch over `params.samples` list entries
+    /// in workgroups of 64 (`aov_refine`).
+    fn submit_list(&self, pipeline: &wgpu::ComputePipeline, params: FrameParams) -> wgpu::SubmissionIndex {
+        self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("aov refine") });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("aov refine"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups(params.samples.div_ceil(64), 1, 1);
+        }
+        self.ctx.queue.submit([encoder.finish()])
     }
 
     /// The film on the device (`FilmPixel` per pixel, row-major): a viewer's display pass

@@ -5,9 +5,10 @@
 //! WGSL twin: `shaders/aov.wgsl` (entry point `aov`), with the same names and the same
 //! random numbers, so that both backends produce the same AOVs up to rounding.
 //!
-//! Each pixel averages [`AOV_SAMPLES`] camera rays, jittered over the pixel as the render's
-//! box filter places its samples, so that the guides are anti-aliased as the image is (an
-//! aliased guide puts its staircase into a denoised edge). Their random numbers come from the
+//! Each pixel averages [`AOV_SAMPLES`] camera rays, stratified over the pixel as the
+//! render's box filter places its samples, so that the guides are anti-aliased as the image
+//! is (an aliased guide puts its staircase into a denoised edge), and [`AOV_REFINED_SAMPLES`]
+//! on silhouettes and emitters' edges ([`pixels_to_refine`]). Their random numbers come from the
 //! independent sampler at sample indices the render never reaches ([`AOV_SAMPLE_INDEX`]), so
 //! the guides' jitter is independent of the image's noise: a denoiser weighting by features
 //! that correlate with the noise it removes would keep part of it (Rousselle et al. 2013
@@ -32,86 +33,166 @@ use crate::scene::layout::{Camera, PixelAov, MATERIAL_DOUBLE_SIDED};
 use crate::scene::texture::textured_material;
 use crate::scene::FlatScene;
 
-/// Camera rays per pixel the AOVs average: 16 places them about as finely as a 16-spp render
-/// places its samples, enough that an edge's coverage is resolved to ±1/8 (a further
-/// doubling cost more time than the denoiser it guides and changed its error by under 1%
-/// on the Cornell box).
+/// Camera rays per pixel the AOVs average, one in each cell of a 4 × 4 grid over the pixel:
+/// 16 place them about as finely as a 16-spp render places its samples (a further doubling
+/// cost more time than the denoiser it guides and changed its error by under 1% on the
+/// Cornell box).
 pub const AOV_SAMPLES: u32 = 16;
+/// Rays per pixel on a silhouette or an emitter's edge ([`pixels_to_refine`]), one in each
+/// cell of a 16 × 16 grid: there the denoiser reads coverage and emission as the share of
+/// the pixel they take, and 16 rays would state a bright emitter's share only to ±1/16 or so.
+/// Such pixels are few (a line along each edge), so the refinement costs little.
+pub const AOV_REFINED_SAMPLES: u32 = 256;
 
 /// Delta bounces an AOV ray follows at most before it takes the surface it stands on: a
 /// chain of mirrors or a glass sphere's two faces need 2–4.
 pub const AOV_MAX_DELTA_BOUNCES: u32 = 8;
 
 /// The sample index of the first AOV ray; ray k takes `AOV_SAMPLE_INDEX - k`. Renders count
-/// their samples up from 0 and never come near (`--spp` is a `u32`, and a render of 2³²−16
+/// their samples up from 0 and never come near (`--spp` is a `u32`, and a render of 2³²−256
 /// samples per pixel would take years), so the AOVs' numbers never repeat an image sample's.
 pub const AOV_SAMPLE_INDEX: u32 = u32::MAX;
 
+/// What one AOV ray found.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct AovRay {
+    /// Did the camera ray hit a surface (and at what distance)?
+    hit: bool,
+    depth: f32,
+    albedo: Vec3,
+    normal: Vec3,
+    emission: Vec3,
+}
+
+/// AOV ray `k` of `rays` (a square number) of pixel `(x, y)`: in cell k of a √rays × √rays
+/// grid over the pixel, jittered within it.
+#[allow(clippy::too_many_arguments)] // reason: a pixel's ray needs all of these; the WGSL twin takes the same
+fn aov_ray(
+    scene: &FlatScene,
+    camera: &Camera,
+    (width, height): (u32, u32),
+    (x, y): (u32, u32),
+    seed: u32,
+    cone: crate::scene::camera::RayCone,
+    k: u32,
+    rays: u32,
+) -> AovRay {
+    let side = rays.isqrt();
+    let mut rng = PathSampler::new(SamplerKind::Independent, x, y, AOV_SAMPLE_INDEX - k, seed);
+    let jitter = rng.next_2d();
+    let cell = glam::Vec2::new((k % side) as f32, (k / side) as f32);
+    let u = ((cell + jitter) / side as f32).min(glam::Vec2::splat(1.0 - f32::EPSILON));
+    let mut ray = generate_camera_ray(camera, width, height, x, y, u);
+    let mut out = AovRay::default();
+    let mut travelled = 0.0f32;
+    for bounce in 0..=AOV_MAX_DELTA_BOUNCES {
+        let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
+        let Some(hit) = scene.intersect_closest(&ray, alpha_seed) else { break };
+        let si = surface_interaction(scene, &ray, &hit, cone.width_at(travelled + hit.hit.t));
+        travelled += si.distance;
+        if bounce == 0 {
+            out.hit = true;
+            out.depth = si.distance;
+        }
+        let untextured = &scene.materials[si.material as usize];
+        let material = if scene.features.textures {
+            textured_material(untextured, &scene.texture_arrays(), si.uv, si.lod)
+        } else {
+            *untextured
+        };
+        let bsdf = GltfBsdf::new(&material, si.wo, si.front_face, si.coat_normal);
+        if bsdf.has_non_delta() || bounce == AOV_MAX_DELTA_BOUNCES {
+            out.albedo = Vec3::from(material.base_color);
+            out.normal = si.frame.z;
+            if si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0 {
+                out.emission = Vec3::from(material.emission);
+            }
+            break;
+        }
+        // Both numbers drawn whether or not the BSDF reads the first (the kernel does).
+        let u_lobe = rng.next_1d();
+        let u_dir = rng.next_direction_2d();
+        let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { break };
+        ray = spawn_ray(si.p, si.p_error, si.n_geometric, si.frame.from_local(bs.wi).normalize());
+    }
+    out
+}
+
 /// The AOVs of pixel `(x, y)` of a `width × height` render through `camera` with seed
-/// `seed`.
+/// `seed`, averaged over `rays` rays ([`AOV_SAMPLES`] or [`AOV_REFINED_SAMPLES`]).
 pub fn pixel_aov(
     scene: &FlatScene,
     camera: &Camera,
     (width, height): (u32, u32),
-    x: u32,
-    y: u32,
+    (x, y): (u32, u32),
     seed: u32,
+    rays: u32,
 ) -> PixelAov {
     // Textures are read at the level of detail of a render of AOV_SAMPLES samples.
     let cone = camera_ray_cone(camera, height, AOV_SAMPLES);
+    let mut p = PixelAov { rays, ..PixelAov::default() };
     let (mut albedo, mut normal, mut emission) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
-    let (mut depth, mut hits) = (0.0f32, 0u32);
-    for k in 0..AOV_SAMPLES {
-        let mut rng = PathSampler::new(SamplerKind::Independent, x, y, AOV_SAMPLE_INDEX - k, seed);
-        let mut ray = generate_camera_ray(camera, width, height, x, y, rng.next_2d());
-        let mut travelled = 0.0f32;
-        for bounce in 0..=AOV_MAX_DELTA_BOUNCES {
-            let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
-            let Some(hit) = scene.intersect_closest(&ray, alpha_seed) else { break };
-            let si = surface_interaction(scene, &ray, &hit, cone.width_at(travelled + hit.hit.t));
-            travelled += si.distance;
-            if bounce == 0 {
-                depth += si.distance;
-                hits += 1;
-            }
-            let untextured = &scene.materials[si.material as usize];
-            let material = if scene.features.textures {
-                textured_material(untextured, &scene.texture_arrays(), si.uv, si.lod)
-            } else {
-                *untextured
-            };
-            let bsdf = GltfBsdf::new(&material, si.wo, si.front_face, si.coat_normal);
-            if bsdf.has_non_delta() || bounce == AOV_MAX_DELTA_BOUNCES {
-                albedo += Vec3::from(material.base_color);
-                normal += si.frame.z;
-                if si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0 {
-                    emission += Vec3::from(material.emission);
-                }
-                break;
-            }
-            // Both numbers drawn whether or not the BSDF reads the first (the kernel does).
-            let u_lobe = rng.next_1d();
-            let u_dir = rng.next_direction_2d();
-            let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { break };
-            ray = spawn_ray(si.p, si.p_error, si.n_geometric, si.frame.from_local(bs.wi).normalize());
-        }
+    for k in 0..rays {
+        let r = aov_ray(scene, camera, (width, height), (x, y), seed, cone, k, rays);
+        albedo += r.albedo;
+        normal += r.normal;
+        emission += r.emission;
+        p.depth += r.depth;
+        p.hits += r.hit as u32;
     }
-    let n = AOV_SAMPLES as f32;
-    PixelAov {
-        albedo: (albedo / n).to_array(),
-        depth: if hits > 0 { depth / hits as f32 } else { 0.0 },
-        normal: (normal / n).to_array(),
-        hits,
-        emission: (emission / n).to_array(),
-        _pad0: 0,
-    }
+    let n = rays as f32;
+    p.albedo = (albedo / n).to_array();
+    p.normal = (normal / n).to_array();
+    p.emission = (emission / n).to_array();
+    p.depth = if p.hits > 0 { p.depth / p.hits as f32 } else { 0.0 };
+    p
 }
 
-/// Every pixel's AOVs, row-major from the top row, rows in parallel.
+/// The pixels of a first AOV pass that straddle a silhouette or an emitter's edge, which the
+/// second pass refines with [`AOV_REFINED_SAMPLES`] rays: their coverage is partial, or a
+/// pixel of their 3 × 3 neighbourhood differs from them in coverage or in emission (by more
+/// than 1%: a thin emitter's edge can miss all 16 first rays of a pixel it crosses, so the
+/// neighbours tell). Row-major indices, ascending.
+pub fn pixels_to_refine(width: u32, height: u32, first: &[PixelAov]) -> Vec<u32> {
+    let (w, h) = (width as usize, height as usize);
+    let coverage = |p: &PixelAov| p.hits as f32 / p.rays.max(1) as f32;
+    let emission = |p: &PixelAov| Vec3::from(p.emission).max_element();
+    (0..w * h)
+        .filter(|&i| {
+            let p = &first[i];
+            let (c, e) = (coverage(p), emission(p));
+            if c > 0.0 && c < 1.0 {
+                return true;
+            }
+            let (x, y) = (i % w, i / w);
+            (y.saturating_sub(1)..=(y + 1).min(h - 1)).any(|qy| {
+                (x.saturating_sub(1)..=(x + 1).min(w - 1)).any(|qx| {
+                    let q = &first[qy * w + qx];
+                    coverage(q) != c || (emission(q) - e).abs() > 0.01 * emission(q).max(e)
+                })
+            })
+        })
+        .map(|i| i as u32)
+        .collect()
+}
+
+/// Every pixel's AOVs, row-major from the top row, rows in parallel: a first pass of
+/// [`AOV_SAMPLES`] rays, then [`AOV_REFINED_SAMPLES`] for the pixels [`pixels_to_refine`]
+/// names.
 pub fn render_aovs(scene: &FlatScene, camera: &Camera, width: u32, height: u32, seed: u32) -> Vec<PixelAov> {
     use rayon::prelude::*;
-    (0..height)
+    let size = (width, height);
+    let mut aovs: Vec<PixelAov> = (0..height)
         .into_par_iter()
-        .flat_map_iter(|y| (0..width).map(move |x| pixel_aov(scene, camera, (width, height), x, y, seed)))
-        .collect()
+        .flat_map_iter(|y| (0..width).map(move |x| pixel_aov(scene, camera, size, (x, y), seed, AOV_SAMPLES)))
+        .collect();
+    let refine = pixels_to_refine(width, height, &aovs);
+    let refined: Vec<PixelAov> = refine
+        .par_iter()
+        .map(|&i| pixel_aov(scene, camera, size, (i % width, i / width), seed, AOV_REFINED_SAMPLES))
+        .collect();
+    for (&i, p) in refine.iter().zip(refined) {
+        aovs[i as usize] = p;
+    }
+    aovs
 }

@@ -406,7 +406,7 @@ gpu_struct! {
 
 gpu_struct! {
     /// A pixel's auxiliary images (AOVs) for denoising and compositing, averaged over
-    /// `integrator::aov::AOV_SAMPLES` camera rays (`integrator::aov`, WGSL twin
+    /// `rays` camera rays (`integrator::aov`, WGSL twin
     /// `shaders/aov.wgsl`).
     pub struct PixelAov {
         /// Mean base colour of the first non-delta surface each ray reaches, followed
@@ -427,7 +427,8 @@ gpu_struct! {
         /// emitter's edge apart from the surface beside it, which has the same albedo, normal
         /// and depth.
         pub emission: [f32; 3],
-        pub _pad0: u32,
+        /// Rays the pixel averaged (`AOV_SAMPLES`, or `AOV_REFINED_SAMPLES` on an edge).
+        pub rays: u32,
     }
 }
 

@@ -64,8 +64,14 @@ pub fn denoise_film(
 ) -> Result<Vec<Vec3>> {
     let color = film.mean();
     let variance = film.variance_of_mean();
-    let input =
-        DenoiseInput { width: film.width, height: film.height, color: &color, variance: &variance, aovs };
+    let input = DenoiseInput {
+        width: film.width,
+        height: film.height,
+        color: &color,
+        variance: &variance,
+        aovs,
+        spp: (film.total_samples() as f64 / film.pixels.len().max(1) as f64) as f32,
+    };
     crate::denoise::denoise(denoiser, &input, gpu)
 }
 
