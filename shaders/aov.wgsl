@@ -71,8 +71,10 @@ fn aov_ray(x: u32, y: u32, cone: vec2<f32>, k: u32, rays: u32) -> AovRay {
 
 // The AOVs of pixel (x, y) averaged over `rays` rays (CPU twin: `pixel_aov`).
 fn pixel_aov(x: u32, y: u32, cone: vec2<f32>, rays: u32) -> PixelAov {
-    var p = PixelAov(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0u, vec3<f32>(0.0), rays);
+    // `rays` counts the rays taken, so that the host can tell a pass the device cut short.
+    var p = PixelAov(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0u, vec3<f32>(0.0), 0u);
     for (var k = 0u; k < rays; k++) {
+        p.rays += 1u;
         let r = aov_ray(x, y, cone, k, rays);
         p.albedo += r.albedo;
         p.normal += r.normal;
@@ -80,7 +82,7 @@ fn pixel_aov(x: u32, y: u32, cone: vec2<f32>, rays: u32) -> PixelAov {
         p.depth += r.depth;
         p.hits += select(0u, 1u, r.hit);
     }
-    let n = f32(rays);
+    let n = f32(p.rays);
     p.albedo /= n;
     p.normal /= n;
     p.emission /= n;

@@ -490,3 +490,25 @@ fn lights_of_unequal_power_same_seed_agree() {
     assert!(split_columns > 0, "every alias column whole: the second arm is not exercised");
     same_seed_agrees_scene("EmissiveStrengthTest", &flat, 1e-3);
 }
+
+/// Every sample lands, however many a dispatch carries: an 8 × 8 image is rendered in
+/// dispatches of many samples per pixel, where lavapipe once lost some of them silently
+/// (`MAX_DISPATCH_SAMPLES` in src/gpu/renderer.rs).
+#[test]
+fn every_sample_lands_on_a_small_image() {
+    let Some(gpu) = common::gpu() else { return };
+    for (scene, splits) in [("cornell-spheres.gltf", 1), ("cornell-box.gltf", 4)] {
+        let flat = common::flat_scene(&common::scene(scene), 8, 8);
+        let settings = RenderSettings { splits, ..settings(8, 1024, 3) };
+        let mut backend = GpuBackend::new(gpu.clone(), &flat, &settings).unwrap();
+        let film = common::render(&mut backend, 1024);
+        let short: Vec<(usize, u32)> = film
+            .pixels
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.count + p.rejected != 1024)
+            .map(|(i, p)| (i, p.count))
+            .collect();
+        assert!(short.is_empty(), "{scene}: pixels short of 1,024 samples (pixel, count): {short:?}");
+    }
+}
