@@ -142,6 +142,10 @@ struct FrameParams {
     camera_connections: u32,
     scene_center: vec3<f32>,
     scene_radius: f32,
+    light_paths: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct FilmPixel {

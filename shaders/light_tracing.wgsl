@@ -4,8 +4,9 @@
 // differs from radiance transport.
 
 // One invocation per light path of pass `frame.sample_offset`: path i = y · width + x, the
-// band's rows as `render` covers them. Its camera connections are splatted, divided by the
-// number of paths, into `caustics`, which the host clears before the pass.
+// band's rows as `render` covers them, for i below `frame.light_paths`. Its camera
+// connections are splatted, divided by the number of paths, into `caustics`, which the host
+// clears before the pass.
 @compute @workgroup_size(8, 8, 1)
 fn trace_caustics(@builtin(global_invocation_id) gid: vec3<u32>) {
     load_dispatch_constants();
@@ -14,6 +15,9 @@ fn trace_caustics(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = px.y * frame.width + px.x;
+    if (i >= frame.light_paths) {
+        return;
+    }
     rays_traced = 0u;
     sampler_start(SAMPLER_INDEPENDENT, i, LIGHT_PATH_STREAM, frame.sample_offset, frame.seed);
     trace_light_path();
@@ -138,6 +142,5 @@ fn connect_to_camera(si: SurfaceInteraction, hit: ClosestHit, beta: vec3<f32>) {
     if (!is_finite_vec3(value)) {
         return;
     }
-    let paths = frame.width * frame.height;
-    caustic_splat(proj.pixel, value * (1.0 / f32(paths)));
+    caustic_splat(proj.pixel, value * (1.0 / f32(frame.light_paths)));
 }

@@ -132,3 +132,50 @@ fn view_renders_frames_equal_to_a_headless_render() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `view --denoise` (the `D` key's view from the start) shows and writes what
+/// `render --denoise` does with the same seed: the same film, the same AOVs, the same filter.
+#[test]
+fn the_viewers_denoised_view_equals_a_headless_denoised_render() {
+    let Some(_) = with_display() else { return };
+    let scene = common::scene("cornell-box.gltf");
+    let dir = std::env::temp_dir().join(format!("pathlight-view-denoise-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut backends = vec!["cpu"];
+    if common::gpu().is_some() {
+        backends.push("gpu");
+    }
+    for backend in backends {
+        let file = |name: &str| -> PathBuf { dir.join(format!("{backend}-{name}")) };
+        let args = |c: &mut Command| {
+            c.args([scene.to_str().unwrap(), "--backend", backend, "--width", "64", "--height", "48"])
+                .args(["--seed", "5", "--denoise"]);
+        };
+        let mut view = with_display().unwrap();
+        view.arg("view");
+        args(&mut view);
+        view.args(["--frames", "4", "--screenshot"]).arg(file("shot.png")).arg("-o").arg(file("view.exr"));
+        run(view);
+        let mut headless = pathlight();
+        headless.arg("render");
+        args(&mut headless);
+        headless.args(["--spp", "4", "-o"]).arg(file("head.exr")).arg("-o").arg(file("head.png"));
+        run(headless);
+        let a = pathlight::film::read_exr(&file("view.exr")).unwrap();
+        let b = pathlight::film::read_exr(&file("head.exr")).unwrap();
+        for channel in ["R", "raw.R", "albedo.G", "normal.Z"] {
+            assert_eq!(a.channels[channel], b.channels[channel], "{backend}: {channel} differs");
+        }
+        assert_ne!(a.channels["R"], a.channels["raw.R"], "{backend}: nothing was denoised");
+        let (shot, reference) = (png(&file("shot.png")), png(&file("head.png")));
+        // Both clamp and sRGB-encode the same denoised values in f32 (as the test above).
+        let worst = shot
+            .pixels()
+            .zip(reference.pixels())
+            .map(|(p, q)| (0..3).map(|c| (p[c] as i32 - q[c] as i32).abs()).max().unwrap())
+            .max()
+            .unwrap();
+        assert!(worst <= 1, "{backend}: the denoised screenshot differs from the headless PNG by {worst}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -173,6 +173,7 @@ impl SceneArgs {
             device: self.device.clone(),
             outputs: self.output_options(),
             adaptive: None,
+            aovs_available: false,
         }
     }
 

@@ -230,6 +230,20 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
         report.rejected,
         session.backend_name()
     );
+    if let Some(budgets) = session.sample_budgets() {
+        let n = budgets.len().max(1) as f64;
+        let mean = budgets.iter().map(|&b| b as f64).sum::<f64>() / n;
+        let full = budgets.iter().filter(|&&b| b >= args.spp).count() as f64 / n;
+        eprintln!(
+            "adaptive: pilot of {} spp in {:.2} s; {mean:.1} spp per pixel on average ({}..{}), {:.1}% of pixels at --spp {}",
+            args.adaptive_min_spp,
+            session.pilot_seconds(),
+            budgets.iter().min().unwrap_or(&0),
+            budgets.iter().max().unwrap_or(&0),
+            100.0 * full,
+            args.spp
+        );
+    }
     let extras = session.extras_timing();
     if let Some(denoiser) = session.output_options().denoiser {
         eprintln!(

@@ -53,8 +53,13 @@ pub fn run(args: ViewArgs) -> Result<(), Error> {
     if args.frames == Some(0) {
         return Err(Error::Settings("--frames must be at least 1".into()));
     }
+    let mut session = args.common.session_options(args.spp);
+    // `D` shows the denoised image, which needs the AOVs.
+    session.aovs_available = true;
     pathlight::viewer::run(ViewOptions {
-        session: args.common.session_options(args.spp),
+        show_denoised: args.common.denoise,
+        denoiser: args.common.denoiser,
+        session,
         target_error: args.target_error,
         frames: args.frames,
         screenshot: args.screenshot,

@@ -142,6 +142,17 @@ impl<'a> CpuBackend<'a> {
     }
 }
 
+impl CpuBackend<'_> {
+    /// The light tracer's paths for sample index `k`: one per pixel that takes it.
+    fn light_paths(&self, k: u32) -> usize {
+        let pixels = self.settings.width as usize * self.settings.height as usize;
+        match &self.budgets {
+            Some(b) => b.iter().filter(|&&n| n > k).count(),
+            None => pixels,
+        }
+    }
+}
+
 impl CpuBackend<'static> {
     /// A backend that shares ownership of its scene.
     pub fn shared(scene: Arc<FlatScene>, settings: &RenderSettings) -> CpuBackend<'static> {
@@ -176,8 +187,16 @@ impl CpuBackend<'_> {
         for k in samples {
             if self.caustic_pass.as_ref().map(|(pass, _)| *pass) != Some(k) {
                 let s = &self.settings;
-                let (image, rays) =
-                    trace_caustic_pass(&self.scene, &self.camera, &integrator, s.width, s.height, k, s.seed);
+                let paths = self.light_paths(k);
+                let (image, rays) = trace_caustic_pass(
+                    &self.scene,
+                    &self.camera,
+                    &integrator,
+                    (s.width, s.height),
+                    k,
+                    s.seed,
+                    paths,
+                );
                 self.light_rays += rays;
                 self.caustic_pass = Some((k, image));
             }

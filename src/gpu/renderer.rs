@@ -58,6 +58,8 @@ pub struct GpuBackend {
     /// Adaptive sampling's sample count per pixel where `settings.adaptive`, else one
     /// element, `u32::MAX` (every pixel takes every sample).
     budgets: wgpu::Buffer,
+    /// The same counts sorted, on the host: how many pixels take a sample index.
+    sorted_budgets: Option<Vec<u32>>,
     ray_counts: wgpu::Buffer,
     settings: RenderSettings,
     light_count: u32,
@@ -328,6 +330,7 @@ impl GpuBackend {
             aovs,
             aov_refine_list,
             budgets,
+            sorted_budgets: None,
             settings: settings.clone(),
             light_count: scene.lights.len() as u32,
             camera: scene.camera,
@@ -457,7 +460,8 @@ impl GpuBackend {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("caustics") });
         encoder.clear_buffer(&self.caustics, 0, None);
         self.ctx.queue.submit([encoder.finish()]);
-        let h = self.settings.height;
+        // Path i is invocation (i mod width, i div width): the rows that hold the pass's paths.
+        let h = self.light_paths(pass).div_ceil(self.settings.width).min(self.settings.height);
         let mut row = 0;
         while row < h {
             let count = rows.max(1).min(h - row);
@@ -475,6 +479,15 @@ impl GpuBackend {
     /// The forms its kernel reads the scene's small tables in.
     pub fn tables(&self) -> UniformTables {
         self.kernel.key.tables
+    }
+
+    /// The light tracer's paths for sample index `k`: one per pixel that takes it
+    /// (`trace_caustic_pass`).
+    fn light_paths(&self, k: u32) -> u32 {
+        match &self.sorted_budgets {
+            Some(b) => (b.len() - b.partition_point(|&n| n <= k)) as u32,
+            None => self.settings.width * self.settings.height,
+        }
     }
 
     fn frame_params(&self, sample_offset: u32, samples: u32, row_offset: u32, row_count: u32) -> FrameParams {
@@ -499,6 +512,10 @@ impl GpuBackend {
             camera_connections: !self.camera_sees_only_delta as u32,
             scene_center: self.scene_center,
             scene_radius: self.scene_radius,
+            light_paths: self.light_paths(sample_offset),
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         }
     }
 
@@ -840,6 +857,11 @@ impl Backend for GpuBackend {
 
     fn set_sample_budgets(&mut self, budgets: Option<&[u32]>) -> Result<()> {
         let pixels = self.settings.width as usize * self.settings.height as usize;
+        self.sorted_budgets = budgets.map(|b| {
+            let mut sorted = b.to_vec();
+            sorted.sort_unstable();
+            sorted
+        });
         if !self.settings.adaptive {
             return Err(Error::Settings(
                 "sample budgets for a GPU render not set up for them (RenderSettings::adaptive)".into(),

@@ -82,22 +82,25 @@ pub fn caustic_from_fixed(x: u64) -> f32 {
     high + low
 }
 
-/// The light-traced half of every pixel for sample index `pass`: one light path per pixel,
-/// the image of their camera connections divided by the number of paths (row-major, the
-/// film's layout), and the rays they traced. Deterministic: path i draws its numbers from
+/// The light-traced half of every pixel for sample index `pass`: `paths` light paths (one
+/// per pixel, or under adaptive sampling one per pixel still taking samples: the light
+/// tracer's effort then keeps its share of the camera paths'), the image of their camera
+/// connections divided by their number (row-major, the film's layout), and the rays they
+/// traced. Each pass's image is an unbiased estimate of the caustic light whatever `paths`
+/// is. Deterministic: path i draws its numbers from
 /// its own stream, and the connections are summed in fixed point, where order does not
 /// matter.
 pub fn trace_caustic_pass(
     scene: &FlatScene,
     camera: &Camera,
     settings: &IntegratorSettings,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
     pass: u32,
     seed: u32,
+    paths: usize,
 ) -> (Vec<Vec3>, u64) {
     let projection = PinholeProjection::new(camera, width, height);
-    let paths = width as usize * height as usize;
+    let pixels = width as usize * height as usize;
     let tasks: Vec<(Vec<(usize, Vec3)>, u64)> = (0..paths.div_ceil(PATHS_PER_TASK))
         .into_par_iter()
         .map(|task| {
@@ -116,7 +119,7 @@ pub fn trace_caustic_pass(
         rays += task_rays;
         lists.push(splats);
     }
-    let image = sum_splats(paths, &lists, 1.0 / paths as f32);
+    let image = sum_splats(pixels, &lists, 1.0 / paths.max(1) as f32);
     (image, rays)
 }
 

@@ -14,23 +14,38 @@
 //! given the most samples is bit-for-bit the pixel of a uniform render.
 //!
 //! The count: the pilot's per-sample relative variance of the pixel,
-//! v = mean over channels of s²_c / (μ²_c + 10⁻²) (the benchmark's relMSE denominator, so
-//! that the threshold means what relMSE means), needs N = v / T² samples for a relative
-//! standard error T ([`AdaptiveSettings::threshold`], as Cycles' adaptive threshold is a
-//! per-pixel noise level). A pilot of a few samples misses rare bright paths (a caustic seen
-//! in a few of a pixel's samples), so v is taken as the larger of the pixel's own and its
-//! 3 × 3 neighbourhood's mean: noise comes in patches. N is clamped to
-//! [`AdaptiveSettings::min_spp`] ..= the render's `--spp`.
+//! v = mean over channels of s²_c / (μ²_c + 10⁻²) (the benchmark's relMSE denominator), is
+//! raised to the largest in its 5 × 5 neighbourhood (a pilot of a few samples misses rare
+//! bright paths, a caustic seen in a few of a pixel's samples, but they come in patches) and
+//! to a quarter of the image's mean (a pixel that looks noiseless in the pilot may not be:
+//! without this floor, 38% of the mirror-and-glass box's pixels got fewer samples than a
+//! uniform render gives them and carried two thirds of the error). Then
+//! N = √(v · v̄) / T², with v̄ the image's mean: samples in proportion to √v are the split
+//! that minimises the image's relMSE for the samples spent (Σ v/N at fixed Σ N), while
+//! equalising every pixel's error (N ∝ v, a per-pixel threshold taken literally) spends
+//! samples exactly as uselessly as uniform sampling does on the image's mean relMSE. So T
+//! is the relative standard error of a pixel of the image's mean noise; a pixel k times
+//! noisier (in variance) ends at T·k^¼. N is clamped to [`AdaptiveSettings::min_spp`] ..=
+//! the render's `--spp`.
+
+/// The pilot's variance is taken as the largest within this many pixels (module
+/// documentation).
+pub const ADAPTIVE_NEIGHBOURHOOD: usize = 2;
+/// No pixel's variance is taken below this share of the image's mean (module
+/// documentation).
+pub const ADAPTIVE_VARIANCE_FLOOR: f64 = 0.25;
 
 use crate::film::Film;
 
-/// The default per-pixel relative standard error to stop at (`--adaptive-threshold`): 2%,
-/// below what a viewer sees in a mid-grey patch (`bench/RESULTS.md`, "Adaptive sampling").
-pub const DEFAULT_ADAPTIVE_THRESHOLD: f32 = 0.02;
+/// The default relative standard error of a pixel of mean noise (`--adaptive-threshold`):
+/// 5%, about 100 samples per pixel on the Cornell box, a clean preview
+/// (`bench/RESULTS.md`, "Adaptive sampling").
+pub const DEFAULT_ADAPTIVE_THRESHOLD: f32 = 0.05;
 /// The default pilot size, which is also the fewest samples any pixel gets
-/// (`--adaptive-min-spp`): 16 samples estimate a pixel's variance to about ±35% (χ² with 15
-/// degrees of freedom).
-pub const DEFAULT_ADAPTIVE_MIN_SPP: u32 = 16;
+/// (`--adaptive-min-spp`): 8 samples estimate a pixel's variance only to about ±50% (χ² with
+/// 7 degrees of freedom), which the 5 × 5 neighbourhood makes up for; a larger pilot is
+/// samples thrown away.
+pub const DEFAULT_ADAPTIVE_MIN_SPP: u32 = 8;
 
 /// `--adaptive`'s settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -98,19 +113,27 @@ pub fn relative_variance(pilot: &Film) -> Vec<f32> {
 pub fn sample_budgets(pilot: &Film, settings: &AdaptiveSettings, max_spp: u32) -> Vec<u32> {
     let (w, h) = (pilot.width as usize, pilot.height as usize);
     let v = relative_variance(pilot);
-    let t2 = (settings.threshold as f64).powi(2);
-    (0..w * h)
+    let r = ADAPTIVE_NEIGHBOURHOOD;
+    let smoothed: Vec<f64> = (0..w * h)
         .map(|i| {
             let (x, y) = (i % w, i / w);
-            let (mut sum, mut n) = (0.0f64, 0.0f64);
-            for qy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
-                for qx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
-                    sum += v[qy * w + qx] as f64;
-                    n += 1.0;
+            let mut most = 0.0f64;
+            for qy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+                for qx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                    most = most.max(v[qy * w + qx] as f64);
                 }
             }
-            let variance = (v[i] as f64).max(sum / n);
-            let needed = (variance / t2).ceil();
+            most
+        })
+        .collect();
+    let finite: Vec<f64> = smoothed.iter().copied().filter(|x| x.is_finite()).collect();
+    let mean = finite.iter().sum::<f64>() / finite.len().max(1) as f64;
+    let t2 = (settings.threshold as f64).powi(2);
+    smoothed
+        .iter()
+        .map(|&variance| {
+            let variance = variance.max(ADAPTIVE_VARIANCE_FLOOR * mean);
+            let needed = ((variance * mean).sqrt() / t2).ceil();
             if needed.is_nan() || needed >= max_spp as f64 {
                 max_spp
             } else {

@@ -381,6 +381,13 @@ gpu_struct! {
         /// bidirectional light subpaths from lights at infinity start.
         pub scene_center: [f32; 3],
         pub scene_radius: f32,
+        /// Light paths the light tracer traces in this pass (`trace_caustics`): one per
+        /// pixel, or under adaptive sampling one per pixel still taking samples; its splats
+        /// are divided by it.
+        pub light_paths: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 

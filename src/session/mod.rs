@@ -112,6 +112,10 @@ pub struct SessionOptions {
     /// Adaptive sampling (`--adaptive`): each pixel's sample count, at most `spp`, decided
     /// from an independent pilot render (`crate::sampling::adaptive`).
     pub adaptive: Option<AdaptiveSettings>,
+    /// Make the AOV pass available ([`Session::aovs`], [`Session::denoised`]) even where the
+    /// outputs write none: the viewer's denoised view (the GPU backend then holds 48 bytes per
+    /// pixel for it).
+    pub aovs_available: bool,
 }
 
 impl SessionOptions {
@@ -138,6 +142,7 @@ impl SessionOptions {
             device: None,
             outputs: OutputOptions::default(),
             adaptive: None,
+            aovs_available: false,
         }
     }
 }
@@ -261,7 +266,7 @@ impl Session {
             splits: options.splits.unwrap_or(1),
             bdpt_strategy: options.bdpt_strategy,
             record_strategies: options.record_strategies,
-            aovs: options.outputs.needs_aovs(),
+            aovs: options.outputs.needs_aovs() || options.aovs_available,
             adaptive: options.adaptive.is_some(),
             ..RenderSettings::default()
         };

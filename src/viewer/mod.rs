@@ -5,8 +5,9 @@
 //!   input even on lavapipe, where one sample of a 512² image takes over a second.
 //! * The GPU backend's accumulation buffer is drawn in place by the display pass; the CPU
 //!   backend's film is uploaded at most every [`UPLOAD_INTERVAL`].
-//! * Keys: `+`/`-` exposure, `T` tone map (clamp, ACES, false-colour relative error), `S`
-//!   saves EXR and PNG, `R` restarts, `Esc` quits. Left drag orbits, right or middle drag
+//! * Keys: `+`/`-` exposure, `T` tone map (clamp, ACES, false-colour relative error), `D`
+//!   shows the denoised image (made again every [`DENOISE_INTERVAL`] while the film
+//!   converges), `S` saves EXR and PNG, `R` restarts, `Esc` quits. Left drag orbits, right or middle drag
 //!   pans, the wheel dollies; each restarts the accumulation.
 //! * `--frames N` renders N whole passes (N samples per pixel, one per frame, for tests
 //!   and pictures), writes `--screenshot` and the outputs, and exits.
@@ -36,6 +37,9 @@ use orbit::Orbit;
 pub const FRAME_WORK_SECONDS: f64 = 0.03;
 /// The CPU backend's film is uploaded for display at most this often.
 pub const UPLOAD_INTERVAL: Duration = Duration::from_millis(100);
+/// The denoised view is made again at most this often while the film converges: denoising a
+/// 512² image takes about 0.4 s on this VM's two cores (`bench/RESULTS.md`, "Denoising").
+pub const DENOISE_INTERVAL: Duration = Duration::from_secs(2);
 /// The title's statistics (and the predicted error, which reads the film) refresh this often.
 const TITLE_INTERVAL: Duration = Duration::from_millis(500);
 
@@ -55,6 +59,10 @@ pub struct ViewOptions {
     pub exposure: f32,
     /// The starting tone map (`DISPLAY_*`).
     pub tonemap: u32,
+    /// Start by showing the denoised image (`D` toggles it), made by `denoiser`; the session
+    /// must make AOVs available (`SessionOptions::aovs_available`).
+    pub show_denoised: bool,
+    pub denoiser: crate::denoise::Denoiser,
 }
 
 /// Opens the window and runs until it is closed (or `--frames` are done).
@@ -106,6 +114,11 @@ struct State {
     /// Accumulation stopped (--spp or --target-error reached).
     converged: bool,
     saves: u32,
+    /// `D`: the denoised image is shown, from this buffer (a `FilmPixel` per pixel, the
+    /// denoised value as its mean), made at the sample count and time it records.
+    show_denoised: bool,
+    denoiser: crate::denoise::Denoiser,
+    denoised: Option<(wgpu::Buffer, u32, Instant)>,
 }
 
 impl ApplicationHandler for App {
@@ -150,6 +163,10 @@ impl ApplicationHandler for App {
                             DISPLAY_ACES => DISPLAY_RELATIVE_ERROR,
                             _ => DISPLAY_CLAMP,
                         };
+                        Ok(())
+                    }
+                    Key::Character(c) if c.eq_ignore_ascii_case("d") => {
+                        state.show_denoised = !state.show_denoised;
                         Ok(())
                     }
                     Key::Character(c) if c.eq_ignore_ascii_case("r") => state.restart(),
@@ -286,6 +303,9 @@ impl State {
             predicted: None,
             converged: false,
             saves: 0,
+            show_denoised: options.show_denoised,
+            denoiser: options.denoiser,
+            denoised: None,
         })
     }
 
@@ -294,6 +314,7 @@ impl State {
         self.next_row = 0;
         self.converged = false;
         self.predicted = None;
+        self.denoised = None;
         Ok(())
     }
 
@@ -394,8 +415,41 @@ impl State {
         Ok(buffer.clone())
     }
 
+    /// The denoised image as a film buffer for the display pass, made again when the film
+    /// has more samples and [`DENOISE_INTERVAL`] has passed (or accumulation has stopped).
+    fn denoised_buffer(&mut self) -> Result<wgpu::Buffer> {
+        let spp = self.session.spp();
+        let stale = match &self.denoised {
+            None => true,
+            Some((_, at_spp, at)) => *at_spp != spp && (self.converged || at.elapsed() >= DENOISE_INTERVAL),
+        };
+        if stale {
+            let (image, _) = self.session.denoised(self.denoiser)?;
+            let pixels: Vec<crate::scene::layout::FilmPixel> = image
+                .iter()
+                .map(|v| crate::scene::layout::FilmPixel {
+                    mean: v.to_array(),
+                    count: 1,
+                    ..Default::default()
+                })
+                .collect();
+            let buffer = match self.denoised.take() {
+                Some((b, _, _)) if b.size() as usize == std::mem::size_of_val(&pixels[..]) => b,
+                _ => display::upload_buffer(&self.ctx, pixels.len()),
+            };
+            self.ctx.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&pixels));
+            self.denoised = Some((buffer, spp, Instant::now()));
+        }
+        Ok(self.denoised.as_ref().expect("made above").0.clone())
+    }
+
     fn draw(&mut self) -> Result<()> {
-        let film = self.film_buffer(self.converged)?;
+        // The denoised view needs a pass of samples with a variance (two samples per pixel).
+        let film = if self.show_denoised && self.session.spp() >= 2 {
+            self.denoised_buffer()?
+        } else {
+            self.film_buffer(self.converged)?
+        };
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
             wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
@@ -432,11 +486,12 @@ impl State {
             _ => "clamp",
         };
         self.window.set_title(&format!(
-            "pathlight — {} — {} spp{}, {rate:.2} Msamples/s, {seconds:.1} s, predicted relMSE {}, {tonemap}, exposure {:+.1}",
+            "pathlight — {} — {} spp{}, {rate:.2} Msamples/s, {seconds:.1} s, predicted relMSE {}, {tonemap}{}, exposure {:+.1}",
             self.session.source.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
             self.session.spp(),
             if self.converged { " (done)" } else { "" },
             self.predicted.map_or("–".to_string(), |p| format!("{p:.2e}")),
+            if self.show_denoised { format!(", denoised ({})", self.denoiser) } else { String::new() },
             self.exposure
         ));
         Ok(())
@@ -476,7 +531,11 @@ impl State {
     /// `--frames`: the screenshot of what the window shows, and the outputs.
     fn finish(&mut self, options: &ViewOptions) -> Result<()> {
         if let Some(path) = &options.screenshot {
-            let film = self.film_buffer(true)?;
+            let film = if self.show_denoised && self.session.spp() >= 2 {
+                self.denoised_buffer()?
+            } else {
+                self.film_buffer(true)?
+            };
             let s = &self.session.settings;
             let image = display::screenshot(
                 &self.ctx,
