@@ -36,7 +36,7 @@ export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 # folder they are reported as ignored. CI always has it: there a missing folder is an error.
 features=()
 if [ -d ../shared/assets ]; then
-    features=(--features shared-assets)
+    features+=(shared-assets)
 elif [ "${CI:-}" = true ]; then
     echo "ci/test.sh: CI=true but ../shared/assets is missing; the asset tests cannot run" >&2
     exit 1
@@ -44,9 +44,34 @@ else
     echo "ci/test.sh: ../shared/assets not found; the tests that need it will be reported as ignored" >&2
 fi
 
+# Intel Open Image Denoise for the `oidn` feature (`--denoiser oidn`): Debian 12 does not
+# package it; PyPI's pyoidn wheel ships libOpenImageDenoise.so, which the oidn crate links
+# through OIDN_DIR and the tests load through LD_LIBRARY_PATH.
+oidn_dir() {
+    python3 -c 'import os, pyoidn; print(os.path.join(os.path.dirname(pyoidn.__file__), "oidn"))' 2>/dev/null
+}
+if ! oidn_dir >/dev/null && command -v python3 >/dev/null; then
+    echo "ci/test.sh: installing pyoidn (Open Image Denoise) for the oidn feature"
+    python3 -m pip install -q "pyoidn==2.5.1.0" || true
+fi
+if dir=$(oidn_dir) && [ -f "$dir/lib/libOpenImageDenoise.so" ]; then
+    export OIDN_DIR="$dir"
+    export LD_LIBRARY_PATH="$dir/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    features+=(oidn)
+elif [ "${CI:-}" = true ]; then
+    echo "ci/test.sh: CI=true but Open Image Denoise could not be installed (pip install pyoidn); the oidn feature cannot be tested" >&2
+    exit 1
+else
+    echo "ci/test.sh: SKIPPED the oidn feature: no Open Image Denoise (pip install pyoidn)" >&2
+fi
+feature_args=()
+if [ ${#features[@]} -gt 0 ]; then
+    feature_args=(--features "$(IFS=,; echo "${features[*]}")")
+fi
+
 cargo fmt --check
-cargo clippy --release --all-targets "${features[@]}" -- -D warnings
-cargo test --release "${features[@]}"
+cargo clippy --release --all-targets "${feature_args[@]}" -- -D warnings
+cargo test --release "${feature_args[@]}"
 
 # The farm driver (farm/pathlight_farm.py) on a local Dask cluster, a worker killed
 # mid-shard. It needs Python 3 with dask.distributed, installed here when missing.
@@ -55,7 +80,7 @@ if ! python3 -c "import distributed" 2>/dev/null; then
     python3 -m pip install -q "distributed==2024.12.1" || true
 fi
 if python3 -c "import distributed" 2>/dev/null; then
-    cargo build --release "${features[@]}" --bin pathlight
+    cargo build --release "${feature_args[@]}" --bin pathlight
     python3 farm/test_farm.py
 elif [ "${CI:-}" = true ]; then
     echo "ci/test.sh: CI=true but dask.distributed could not be installed; the farm test cannot run" >&2
