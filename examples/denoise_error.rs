@@ -112,29 +112,25 @@ fn reference(args: &Args, name: &str) -> LinearImage {
     LinearImage::read(&path).unwrap()
 }
 
-fn flip(image: &[glam::Vec3], reference: &LinearImage) -> f64 {
-    let test = LinearImage {
+/// `image` as a [`LinearImage`] of the reference's size.
+fn linear(image: &[glam::Vec3], reference: &LinearImage) -> LinearImage {
+    LinearImage {
         width: reference.width,
         height: reference.height,
         rgb: image.iter().map(|v| v.to_array()).collect(),
         variance: None,
         spp: None,
         replicate_variance: None,
-    };
+    }
+}
+
+fn flip(image: &[glam::Vec3], reference: &LinearImage) -> f64 {
     let options = CompareOptions { max_abs: Some(f64::INFINITY), ..CompareOptions::default() };
-    compare_images(&test, reference, &options).unwrap().metrics.flip
+    compare_images(&linear(image, reference), reference, &options).unwrap().metrics.flip
 }
 
 fn relmse(image: &[glam::Vec3], reference: &LinearImage) -> f64 {
-    let test = LinearImage {
-        width: reference.width,
-        height: reference.height,
-        rgb: image.iter().map(|v| v.to_array()).collect(),
-        variance: None,
-        spp: None,
-        replicate_variance: None,
-    };
-    error_against(&test, reference).1
+    error_against(&linear(image, reference), reference).1
 }
 
 fn main() {

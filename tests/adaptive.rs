@@ -8,7 +8,7 @@ mod common;
 
 use std::sync::atomic::AtomicBool;
 
-use pathlight::film::{compare_images, CompareOptions, Film, LinearImage};
+use pathlight::film::Film;
 use pathlight::sampling::adaptive::AdaptiveSettings;
 use pathlight::session::{BackendChoice, Session, SessionOptions};
 
@@ -39,14 +39,7 @@ fn render(session: &mut Session, spp: u32) -> Film {
 /// compare's multi-scale z-test at a false-alarm rate of 10⁻³ (these tests make a handful
 /// of comparisons).
 fn statistically_equal(a: &Film, b: &Film) -> Result<(), String> {
-    let options = CompareOptions { alpha: 1e-3, ..CompareOptions::default() };
-    let report = compare_images(&LinearImage::from_film(a), &LinearImage::from_film(b), &options)
-        .map_err(|e| e.to_string())?;
-    if report.same() {
-        Ok(())
-    } else {
-        Err(report.failures.join("; "))
-    }
+    common::statistically_equal_at(a, b, 1e-3)
 }
 
 fn backends() -> Vec<BackendChoice> {

@@ -23,15 +23,7 @@ fn render(scene: &FlatScene, settings: &RenderSettings) -> Film {
 /// The multi-scale z-test `pathlight compare` runs, at a false-alarm rate of 10⁻³ per
 /// comparison (compare's default is 10⁻²): these tests make dozens of comparisons.
 fn statistically_equal(a: &Film, b: &Film) -> Result<(), String> {
-    use pathlight::film::{compare_images, CompareOptions, LinearImage};
-    let options = CompareOptions { alpha: 1e-3, ..CompareOptions::default() };
-    let report = compare_images(&LinearImage::from_film(a), &LinearImage::from_film(b), &options)
-        .map_err(|e| e.to_string())?;
-    if report.same() {
-        Ok(())
-    } else {
-        Err(report.failures.join("; "))
-    }
+    common::statistically_equal_at(a, b, 1e-3)
 }
 
 /// Where failing images are written for inspection.

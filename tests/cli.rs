@@ -456,3 +456,153 @@ fn shards_render_and_merge_from_the_command_line() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("samples 2..4 are missing"), "{err}");
 }
+
+/// `render --denoise` writes the denoised image as R, G, B with the raw mean, its variance
+/// and the AOVs beside it; `pathlight denoise` of that file (which reads `raw.*`) makes the
+/// same image; `render --aov` alone leaves R, G, B raw.
+#[test]
+fn denoised_renders_and_the_denoise_command_agree() {
+    let dir = temp_dir("denoise");
+    let scene = common::scene("cornell-box.gltf");
+    let render = |extra: &[&str], out: &std::path::Path| {
+        let mut c = pathlight();
+        c.args([
+            "render",
+            scene.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--spp",
+            "8",
+            "--width",
+            "48",
+            "--seed",
+            "2",
+        ])
+        .args(extra)
+        .arg("-o")
+        .arg(out);
+        let out = c.output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let (plain, aov, denoised) = (dir.join("plain.exr"), dir.join("aov.exr"), dir.join("denoised.exr"));
+    render(&[], &plain);
+    render(&["--aov", "albedo,normal"], &aov);
+    let stderr = render(&["--denoise"], &denoised);
+    assert!(stderr.contains("denoised by atrous"), "{stderr}");
+    let (plain, aov, den) = (
+        pathlight::film::read_exr(&plain).unwrap(),
+        pathlight::film::read_exr(&aov).unwrap(),
+        pathlight::film::read_exr(&denoised).unwrap(),
+    );
+    // The same samples: --aov leaves the image alone, --denoise moves it to raw.*.
+    assert_eq!(plain.channels["R"], aov.channels["R"]);
+    assert!(aov.channels.contains_key("albedo.R") && aov.channels.contains_key("normal.Z"));
+    assert!(!aov.channels.contains_key("depth.Z"), "only the AOVs asked for");
+    assert_eq!(plain.channels["R"], den.channels["raw.R"]);
+    assert_eq!(plain.channels["variance.G"], den.channels["variance.G"]);
+    assert_ne!(den.channels["R"], den.channels["raw.R"]);
+    assert_eq!(den.attributes["pathlight.denoiser"], "atrous");
+    for c in ["albedo.R", "normal.X", "depth.Z", "emission.R", "coverage.Y"] {
+        assert!(den.channels.contains_key(c), "--denoise writes {c}");
+    }
+    // Denoising the file again from its raw mean gives the same image.
+    let again = dir.join("again.exr");
+    let out = pathlight().arg("denoise").arg(&denoised).arg("-o").arg(&again).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let again = pathlight::film::read_exr(&again).unwrap();
+    assert_eq!(again.channels["R"], den.channels["R"]);
+    assert_eq!(again.channels["raw.R"], den.channels["raw.R"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// What denoising cannot work from is a clear error naming the file and what is missing.
+#[test]
+fn denoising_bad_input_is_a_clear_error() {
+    let dir = temp_dir("denoise-bad");
+    let plain = dir.join("plain.exr");
+    assert!(render_cornell_cpu(&[&plain]).status.success());
+    let run = |args: &[&str]| {
+        let out = pathlight().args(args).output().unwrap();
+        assert!(!out.status.success(), "{args:?} should fail");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let out = dir.join("out.exr");
+    let (plain_s, out_s) = (plain.to_str().unwrap(), out.to_str().unwrap());
+    let e = run(&["denoise", plain_s, "-o", out_s]);
+    assert!(e.contains("plain.exr") && e.contains("albedo.R") && e.contains("--aov"), "{e}");
+    let e = run(&["denoise", "no-such-file.exr", "-o", out_s]);
+    assert!(e.contains("no-such-file.exr"), "{e}");
+    let e = run(&["denoise", plain_s, "-o", out_s, "--denoiser", "nlm"]);
+    assert!(e.contains("atrous") && e.contains("oidn"), "the choices are listed: {e}");
+    let scene = common::scene("cornell-box.gltf");
+    let e = run(&["render", scene.to_str().unwrap(), "-o", out_s, "--aov", "albedo,shadow"]);
+    assert!(e.contains("shadow") && e.contains("emission"), "{e}");
+    let e = run(&["render", scene.to_str().unwrap(), "-o", out_s, "--denoiser", "atrous"]);
+    assert!(e.contains("--denoise"), "--denoiser needs --denoise: {e}");
+    if !cfg!(feature = "oidn") {
+        let e = run(&["render", scene.to_str().unwrap(), "-o", out_s, "--denoise", "--denoiser", "oidn"]);
+        assert!(e.contains("without Open Image Denoise"), "{e}");
+        assert!(!out.exists(), "refused before rendering");
+    }
+    let e = run(&["render", scene.to_str().unwrap(), "-o", out_s, "--adaptive", "--spp", "4"]);
+    assert!(e.contains("--adaptive-min-spp 8 exceeds --spp 4"), "{e}");
+    let e = run(&["render", scene.to_str().unwrap(), "-o", out_s, "--adaptive-threshold", "0.1"]);
+    assert!(e.contains("--adaptive"), "the threshold needs --adaptive: {e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `render --adaptive` says what it decided and records the counts.
+#[test]
+fn adaptive_renders_report_their_counts() {
+    let dir = temp_dir("adaptive");
+    let exr = dir.join("a.exr");
+    let scene = common::scene("cornell-box.gltf");
+    let out = pathlight()
+        .args(["render", scene.to_str().unwrap(), "--backend", "cpu", "--spp", "128", "--width", "32"])
+        .args(["--adaptive", "--adaptive-threshold", "0.1", "-o"])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("adaptive: pilot of 8 spp") && stderr.contains("of pixels at --spp 128"),
+        "{stderr}"
+    );
+    let image = pathlight::film::read_exr(&exr).unwrap();
+    let counts = &image.channels["sampleCount"];
+    assert!(counts.iter().all(|&c| (8.0..=128.0).contains(&c)), "counts within the bounds");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `compare` reads a denoised EXR's raw mean, the one its variance describes: a denoised
+/// render compares as the same image as the plain render of the same samples.
+#[test]
+fn compare_reads_the_raw_mean_of_a_denoised_exr() {
+    let dir = temp_dir("compare-denoised");
+    let scene = common::scene("cornell-box.gltf");
+    let (plain, denoised) = (dir.join("plain.exr"), dir.join("denoised.exr"));
+    for (path, extra) in [(&plain, None), (&denoised, Some("--denoise"))] {
+        let mut c = pathlight();
+        c.args([
+            "render",
+            scene.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--spp",
+            "8",
+            "--width",
+            "32",
+            "--seed",
+            "4",
+        ]);
+        c.args(extra).arg("-o").arg(path);
+        assert!(c.output().unwrap().status.success());
+    }
+    let a = pathlight::film::LinearImage::read(&plain).unwrap();
+    let b = pathlight::film::LinearImage::read(&denoised).unwrap();
+    assert_eq!(a.rgb, b.rgb);
+    assert_eq!(a.variance, b.variance);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -53,15 +53,7 @@ fn a_sealed_room_lit_from_outside_is_exactly_black() {
 
 /// The multi-scale z-test `pathlight compare` runs (false-alarm rate 1%).
 fn statistically_equal(a: &Film, b: &Film) -> Result<(), String> {
-    use pathlight::film::{compare_images, CompareOptions, LinearImage};
-    let report =
-        compare_images(&LinearImage::from_film(a), &LinearImage::from_film(b), &CompareOptions::default())
-            .map_err(|e| e.to_string())?;
-    if report.same() {
-        Ok(())
-    } else {
-        Err(report.failures.join("; "))
-    }
+    common::statistically_equal_at(a, b, 0.01)
 }
 
 #[test]

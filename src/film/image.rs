@@ -42,7 +42,8 @@ impl LinearImage {
         }
     }
 
-    /// Reads an EXR (channels R, G, B and optionally variance.R/G/B) or a PNG (8 or 16 bit,
+    /// Reads an EXR (channels R, G, B, or raw.R/G/B where the file was denoised, and
+    /// optionally variance.R/G/B) or a PNG (8 or 16 bit,
     /// grey or RGB, alpha ignored; decoded from sRGB to linear with the exact transfer
     /// function). Anything unreadable, truncated, missing channels or holding non-finite
     /// values is an error naming the file and what is wrong.
@@ -105,9 +106,12 @@ fn read_exr_image(path: &Path) -> Result<LinearImage> {
     };
     let mut names: Vec<&str> = exr.channels.keys().map(String::as_str).collect();
     names.sort_unstable();
-    let rgb = planes(["R", "G", "B"]).unwrap_or_else(|| {
-        Err(Error::image(path, format!("has no R, G, B channels (it has: {})", names.join(", "))))
-    })?;
+    // A denoised EXR holds the denoised image in R, G, B and the mean its variance describes
+    // in raw.R, raw.G, raw.B: a comparison reads the latter (`render --denoise`).
+    let rgb =
+        planes(["raw.R", "raw.G", "raw.B"]).or_else(|| planes(["R", "G", "B"])).unwrap_or_else(|| {
+            Err(Error::image(path, format!("has no R, G, B channels (it has: {})", names.join(", "))))
+        })?;
     let spp = exr.attributes.get("pathlight.spp").and_then(|s| s.parse::<u32>().ok());
     let variance = match planes(["variance.R", "variance.G", "variance.B"]).transpose()? {
         // With one sample per pixel the film stores 0: no estimate, not certainty.

@@ -523,6 +523,17 @@ impl GpuBackend {
     /// row_count)` without waiting. `queue.write_buffer` is ordered on the queue timeline, so
     /// one parameter buffer serves any number of submits in flight.
     fn submit(&self, pipeline: &wgpu::ComputePipeline, params: FrameParams) -> wgpu::SubmissionIndex {
+        let groups = (params.width.div_ceil(WORKGROUP), params.row_count.div_ceil(WORKGROUP), 1);
+        self.submit_groups(pipeline, params, groups)
+    }
+
+    /// [`Self::submit`] with `groups` workgroups.
+    fn submit_groups(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        params: FrameParams,
+        (x, y, z): (u32, u32, u32),
+    ) -> wgpu::SubmissionIndex {
         self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
         let mut encoder = self
             .ctx
@@ -535,11 +546,7 @@ impl GpuBackend {
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &self.bind_group, &[]);
-            pass.dispatch_workgroups(
-                params.width.div_ceil(WORKGROUP),
-                params.row_count.div_ceil(WORKGROUP),
-                1,
-            );
+            pass.dispatch_workgroups(x, y, z);
         }
         self.ctx.queue.submit([encoder.finish()])
     }
@@ -627,7 +634,8 @@ impl GpuBackend {
                 cone_spread: cone.spread,
                 ..self.frame_params(start, count, 0, 1)
             };
-            last = Some(self.submit_list(&kernels.refine, params));
+            // `aov_refine`'s workgroups of 64 over the slice's list entries.
+            last = Some(self.submit_groups(&kernels.refine, params, (count.div_ceil(64), 1, 1)));
         }
         if let Some(index) = last {
             self.wait(index)?;
@@ -650,26 +658,6 @@ impl GpuBackend {
             )));
         }
         Ok(aovs)
-    }
-
-    /// [`Self::submit`] for a one-dimensional dispatch over `params.samples` list entries
-    /// in workgroups of 64 (`aov_refine`).
-    fn submit_list(&self, pipeline: &wgpu::ComputePipeline, params: FrameParams) -> wgpu::SubmissionIndex {
-        self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("aov refine") });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("aov refine"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            pass.dispatch_workgroups(params.samples.div_ceil(64), 1, 1);
-        }
-        self.ctx.queue.submit([encoder.finish()])
     }
 
     /// The film on the device (`FilmPixel` per pixel, row-major): a viewer's display pass

@@ -176,6 +176,24 @@ pub fn flat_scene(path: &std::path::Path, width: u32, height: u32) -> pathlight:
     .unwrap()
 }
 
+/// The multi-scale z-test `pathlight compare` runs, at family-wise false-alarm rate
+/// `alpha` per comparison: `Err` names what differs.
+pub fn statistically_equal_at(
+    a: &pathlight::film::Film,
+    b: &pathlight::film::Film,
+    alpha: f64,
+) -> Result<(), String> {
+    use pathlight::film::{compare_images, CompareOptions, LinearImage};
+    let options = CompareOptions { alpha, ..CompareOptions::default() };
+    let report = compare_images(&LinearImage::from_film(a), &LinearImage::from_film(b), &options)
+        .map_err(|e| e.to_string())?;
+    if report.same() {
+        Ok(())
+    } else {
+        Err(report.failures.join("; "))
+    }
+}
+
 /// Renders with a backend to completion.
 pub fn render(backend: &mut dyn pathlight::Backend, spp: u32) -> pathlight::film::Film {
     let stop = std::sync::atomic::AtomicBool::new(false);
