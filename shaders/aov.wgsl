@@ -98,7 +98,7 @@ fn aov(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (px.z == 0u) {
         return;
     }
-    // The host sets the cone of a render of AOV_SAMPLES samples (`GpuBackend::aovs`).
+    // The host sets the render's cone (`render_aovs`).
     let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
     aovs[px.y * frame.width + px.x] = pixel_aov(px.x, px.y, cone, AOV_SAMPLES);
 }

@@ -384,7 +384,13 @@ impl Backend for CpuBackend<'_> {
 
     fn aovs(&mut self) -> crate::Result<Vec<crate::scene::layout::PixelAov>> {
         let (w, h) = (self.settings.width, self.settings.height);
-        Ok(crate::integrator::aov::render_aovs(&self.scene, &self.camera, w, h, self.settings.seed))
+        Ok(crate::integrator::aov::render_aovs(
+            &self.scene,
+            &self.camera,
+            (w, h),
+            self.settings.seed,
+            self.settings.spp,
+        ))
     }
 
     fn rays_traced(&mut self) -> crate::Result<u64> {

@@ -28,16 +28,20 @@ const MAX_IN_FLIGHT: usize = 2;
 /// shaders/path.wgsl) has a next sample to start where a lane's path ends early.
 const BAND_SAMPLES: u32 = 8;
 
-/// The most samples per pixel one dispatch adds. On lavapipe (Mesa 22.3) a dispatch whose
-/// invocations each loop over more than about 100 samples lost some of them: the pixels'
-/// counts came back short, more so the longer each invocation ran (an 8 × 8 glass scene lost
-/// up to 65% of 384 samples per dispatch; none at 64), with no error reported and the same
-/// with naga's loop bounding off and one submit in flight; the cause, in the driver or the
-/// kernel, is not found. Dispatches are sized by time, so only small images on fast devices
-/// reach such counts; 16 keeps a tenth of the smallest count seen to lose samples, at the cost
-/// of more submits there (each a few milliseconds). `tests/gpu` checks that every sample
-/// lands on a small image.
-const MAX_DISPATCH_SAMPLES: u32 = 16;
+/// On a software GPU, the longest one group of SIMD lanes may run in a dispatch. Lavapipe
+/// (Mesa's gallivm) bounds every shader's loops with one counter per invocation group, set
+/// to 65,535 (`LP_MAX_TGSI_LOOP_ITERATIONS`) when the shader starts and decremented by every
+/// iteration of every loop, BVH traversal steps included; at zero each loop exits as if its
+/// condition had failed. A group that runs longer silently stops: an 8 × 8 glass scene lost
+/// up to 65% of 384 samples per pixel per dispatch, about 12 ms of work per group on this
+/// VM, and a bidirectional path too long for the budget ends early (why same-seed BDPT parts
+/// from the CPU's beyond about 35 bounces). A quarter of that time keeps path-traced
+/// dispatches inside the budget; only small images come near it (a 32² image's time-sized
+/// dispatch gives each group a few milliseconds). `tests/gpu` checks every sample lands on an
+/// 8 × 8 image.
+const SOFTWARE_GPU_GROUP_SECONDS: f64 = 0.003;
+/// Lavapipe's SIMD width in f32 lanes (256-bit AVX2): one group's invocations run together.
+const SOFTWARE_GPU_LANES: f64 = 8.0;
 /// Waiting longer than this for one submit means the GPU hung; report it rather than hang.
 const SUBMIT_TIMEOUT: Duration = Duration::from_secs(120);
 /// Compute workgroup edge (shaders/path.wgsl `@workgroup_size(8, 8, 1)`).
@@ -481,6 +485,21 @@ impl GpuBackend {
         self.kernel.key.tables
     }
 
+    /// The most samples per pixel a dispatch may add on a software GPU
+    /// ([`SOFTWARE_GPU_GROUP_SECONDS`]): a group of lanes runs its pixels' samples one after
+    /// another, `rate` seconds per pixel-sample spread over the host's threads, so it runs
+    /// about spp · rate · threads · lanes seconds. Unbounded on a hardware GPU.
+    fn software_gpu_sample_cap(&self) -> u32 {
+        match self.seconds_per_sample {
+            Some(rate) if !self.ctx.is_hardware() => {
+                let threads = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+                let per_sample = rate * threads * SOFTWARE_GPU_LANES;
+                ((SOFTWARE_GPU_GROUP_SECONDS / per_sample.max(1e-12)) as u32).max(1)
+            }
+            _ => u32::MAX,
+        }
+    }
+
     /// The light tracer's paths for sample index `k`: one per pixel that takes it
     /// (`trace_caustic_pass`).
     fn light_paths(&self, k: u32) -> u32 {
@@ -594,12 +613,9 @@ impl GpuBackend {
             ));
         }
         let kernels = self.ctx.aov_kernels(&self.kernel)?;
-        // Textures at the level of detail of a render of AOV_SAMPLES samples, as on the CPU.
-        let cone = crate::scene::camera::camera_ray_cone(
-            &self.camera,
-            self.settings.height,
-            crate::integrator::aov::AOV_SAMPLES,
-        );
+        // Textures at the render's level of detail, as on the CPU (`render_aovs`).
+        let cone =
+            crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, self.settings.spp);
         // In bands of at most AOV_BAND_PIXELS pixels (16 rays each), so that no submit runs
         // long; they are queued together and waited for once.
         let (width, height) = (self.settings.width, self.settings.height);
@@ -641,8 +657,8 @@ impl GpuBackend {
             self.wait(index)?;
         }
         let aovs = self.read_back::<PixelAov>(&self.aovs)?;
-        // Every pixel counts the rays it took (MAX_DISPATCH_SAMPLES says why a device might
-        // take fewer).
+        // Every pixel counts the rays it took (SOFTWARE_GPU_GROUP_SECONDS says why a device
+        // might take fewer).
         let expected = |i: usize| {
             if refine.binary_search(&(i as u32)).is_ok() {
                 AOV_REFINED_SAMPLES
@@ -733,9 +749,7 @@ impl Backend for GpuBackend {
                     }
                 }
             };
-            // At most MAX_DISPATCH_SAMPLES samples per pixel per dispatch (a small image on a
-            // fast device would otherwise take hundreds).
-            let spp = spp.min(MAX_DISPATCH_SAMPLES);
+            let spp = spp.min(self.software_gpu_sample_cap());
             let spp = if self.light_traces_caustics() {
                 if self.caustic_pass != Some(sample_offset + done) {
                     self.submit_caustic_pass(sample_offset + done, rows);

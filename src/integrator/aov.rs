@@ -119,7 +119,9 @@ fn aov_ray(
 }
 
 /// The AOVs of pixel `(x, y)` of a `width × height` render through `camera` with seed
-/// `seed`, averaged over `rays` rays ([`AOV_SAMPLES`] or [`AOV_REFINED_SAMPLES`]).
+/// `seed`, averaged over `rays` rays ([`AOV_SAMPLES`] or [`AOV_REFINED_SAMPLES`]), textures
+/// read through `cone`.
+#[allow(clippy::too_many_arguments)] // reason: a pixel's AOVs need all of these; the WGSL twin reads them from the frame
 pub fn pixel_aov(
     scene: &FlatScene,
     camera: &Camera,
@@ -127,9 +129,8 @@ pub fn pixel_aov(
     (x, y): (u32, u32),
     seed: u32,
     rays: u32,
+    cone: crate::scene::camera::RayCone,
 ) -> PixelAov {
-    // Textures are read at the level of detail of a render of AOV_SAMPLES samples.
-    let cone = camera_ray_cone(camera, height, AOV_SAMPLES);
     let mut p = PixelAov { rays, ..PixelAov::default() };
     let (mut albedo, mut normal, mut emission) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
     for k in 0..rays {
@@ -180,18 +181,30 @@ pub fn pixels_to_refine(width: u32, height: u32, first: &[PixelAov]) -> Vec<u32>
 
 /// Every pixel's AOVs, row-major from the top row, rows in parallel: a first pass of
 /// [`AOV_SAMPLES`] rays, then [`AOV_REFINED_SAMPLES`] for the pixels [`pixels_to_refine`]
-/// names.
-pub fn render_aovs(scene: &FlatScene, camera: &Camera, width: u32, height: u32, seed: u32) -> Vec<PixelAov> {
+/// names. Textures are read at the level of detail of a render of `spp` samples per pixel,
+/// the render the AOVs go with, so that the albedo a denoiser divides the colour by is the
+/// one the render's samples saw (a 16-spp render reads blurrier mip levels than a 1,024-spp
+/// one: `scene::camera::camera_ray_cone`).
+pub fn render_aovs(
+    scene: &FlatScene,
+    camera: &Camera,
+    (width, height): (u32, u32),
+    seed: u32,
+    spp: u32,
+) -> Vec<PixelAov> {
     use rayon::prelude::*;
     let size = (width, height);
+    let cone = camera_ray_cone(camera, height, spp);
     let mut aovs: Vec<PixelAov> = (0..height)
         .into_par_iter()
-        .flat_map_iter(|y| (0..width).map(move |x| pixel_aov(scene, camera, size, (x, y), seed, AOV_SAMPLES)))
+        .flat_map_iter(|y| {
+            (0..width).map(move |x| pixel_aov(scene, camera, size, (x, y), seed, AOV_SAMPLES, cone))
+        })
         .collect();
     let refine = pixels_to_refine(width, height, &aovs);
     let refined: Vec<PixelAov> = refine
         .par_iter()
-        .map(|&i| pixel_aov(scene, camera, size, (i % width, i / width), seed, AOV_REFINED_SAMPLES))
+        .map(|&i| pixel_aov(scene, camera, size, (i % width, i / width), seed, AOV_REFINED_SAMPLES, cone))
         .collect();
     for (&i, p) in refine.iter().zip(refined) {
         aovs[i as usize] = p;

@@ -9,8 +9,12 @@ use pathlight::sampling::SamplerKind;
 /// BDPT at 32×32, 16 spp, seed 9, paths of at most 32 scattering events. The bound: on
 /// furnace-0.9 (paths of 50+ bounces) same-seed CPU and GPU camera subpaths longer than
 /// about 35 vertices part (up to 10% in 13% of pixels at 16 spp) while the path tracer's
-/// agree to 3e-5 at any depth; the cause is not found yet (issue #43's note). Up to 32
-/// the backends agree to 1e-3 everywhere, and the statistical tests below run unbounded.
+/// agree to 3e-5 at any depth. The likely cause is lavapipe's loop limiter (65,535 loop
+/// iterations per invocation group, traversal steps included: `SOFTWARE_GPU_GROUP_SECONDS`
+/// in src/gpu/renderer.rs): such a sample joins 35+ camera vertices to up to 16 light
+/// vertices, some 10⁴–10⁵ traversal steps in one invocation, and one sample cannot be split
+/// across dispatches. Up to 32 the backends agree to 1e-3 everywhere, and the statistical
+/// tests below run unbounded.
 fn bdpt_settings(sampler: SamplerKind) -> RenderSettings {
     RenderSettings { integrator: Integrator::Bdpt, sampler, max_depth: Some(32), ..settings(32, 16, 9) }
 }

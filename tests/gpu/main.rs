@@ -493,7 +493,7 @@ fn lights_of_unequal_power_same_seed_agree() {
 
 /// Every sample lands, however many a dispatch carries: an 8 × 8 image is rendered in
 /// dispatches of many samples per pixel, where lavapipe once lost some of them silently
-/// (`MAX_DISPATCH_SAMPLES` in src/gpu/renderer.rs).
+/// (lavapipe's loop limiter: `SOFTWARE_GPU_GROUP_SECONDS` in src/gpu/renderer.rs).
 #[test]
 fn every_sample_lands_on_a_small_image() {
     let Some(gpu) = common::gpu() else { return };
