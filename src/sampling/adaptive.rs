@@ -211,20 +211,41 @@ mod tests {
 
     #[test]
     fn budgets_follow_the_variance_within_their_bounds() {
-        let mut pilot = Film::new(3, 1);
-        // Pixel 0: no variance; 1: relative variance 1 (needs 1/T² = 100 at T = 0.1); 2: huge.
-        for (i, (a, b)) in [(1.0f32, 1.0f32), (0.0, 2.0), (0.0, 1e4)].into_iter().enumerate() {
-            for k in 0..16 {
-                film_add_sample(&mut pilot.pixels[i], Vec3::splat(if k % 2 == 0 { a } else { b }), k & 1);
+        // A row of 12 pixels, all of mean 1: pixel 9 alternates 0 and 2 (relative variance
+        // v ≈ 1 per sample), the others are constant.
+        let pilot_of = |noisy: f32| {
+            let mut pilot = Film::new(12, 1);
+            for (i, p) in pilot.pixels.iter_mut().enumerate() {
+                for k in 0..16 {
+                    let x = if i == 9 {
+                        if k % 2 == 0 {
+                            1.0 - noisy
+                        } else {
+                            1.0 + noisy
+                        }
+                    } else {
+                        1.0
+                    };
+                    film_add_sample(p, Vec3::splat(x), k & 1);
+                }
             }
-        }
+            pilot
+        };
         let settings = AdaptiveSettings { threshold: 0.1, min_spp: 16 };
-        let budgets = sample_budgets(&pilot, &settings, 1024);
-        // Pixel 0 takes its neighbour's variance (the 3 × 3 mean), so it is not left at the
-        // minimum beside a noisy one; pixel 2 is capped at the render's spp.
-        assert_eq!(budgets[2], 1024);
-        assert!(budgets[1] > 16 && budgets[1] <= 1024, "{budgets:?}");
-        assert!(budgets[0] >= 16, "{budgets:?}");
+        let budgets = sample_budgets(&pilot_of(1.0), &settings, 1024);
+        // Pixels 7..=11 lie within 2 of the noisy one and take its v; the image's mean is
+        // then 5v/12, which floors pixels 0..=6 at v̄/4. So the noisy five get
+        // √(v·v̄)/T² and the calm seven √(v̄/4·v̄)/T² = v̄/(2T²), √(12/5)/(1/2) ≈ 3.1 times
+        // fewer (each rounded up).
+        assert!(budgets[..7].iter().all(|&n| n == budgets[0]), "{budgets:?}");
+        assert!(budgets[7..].iter().all(|&n| n == budgets[9]), "{budgets:?}");
+        let ratio = budgets[9] as f64 / budgets[0] as f64;
+        assert!((3.0..3.2).contains(&ratio), "noisy ÷ calm = {ratio}: {budgets:?}");
+        assert!(budgets[0] >= settings.min_spp);
+        // A far noisier pixel takes the render's most.
+        let budgets = sample_budgets(&pilot_of(1e3), &settings, 1024);
+        assert_eq!(budgets[9], 1024, "{budgets:?}");
+        assert!(budgets.iter().all(|&n| (16..=1024).contains(&n)), "{budgets:?}");
         assert!(AdaptiveSettings { threshold: 0.0, min_spp: 16 }.validate(64).is_err());
         assert!(AdaptiveSettings { threshold: 0.1, min_spp: 1 }.validate(64).is_err());
         assert!(AdaptiveSettings { threshold: 0.1, min_spp: 128 }.validate(64).is_err());
