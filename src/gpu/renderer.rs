@@ -763,7 +763,11 @@ impl Backend for GpuBackend {
                 let count = rows.min(h - row);
                 let params = self.frame_params(sample_offset + done, spp, row, count);
                 let index = self.submit(&self.kernel.render, params);
-                in_flight.push_back((index, w as f64 * count as f64 * spp as f64, Instant::now()));
+                // The pixel-samples this dispatch computes: under adaptive sampling only the
+                // pixels still sampling (counted over the image, shared out by rows), so that
+                // the rate is that of a working pixel and the software-GPU bound holds.
+                let pixels = self.light_paths(sample_offset + done) as f64 * count as f64 / h as f64;
+                in_flight.push_back((index, pixels.max(1.0) * spp as f64, Instant::now()));
                 let limit = if self.seconds_per_sample.is_none() { 1 } else { MAX_IN_FLIGHT };
                 while in_flight.len() >= limit {
                     let (index, work, submitted) = in_flight.pop_front().expect("non-empty");
