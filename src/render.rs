@@ -46,6 +46,11 @@ pub struct RenderSettings {
     /// Will per-pixel sample counts be set (`Backend::set_sample_budgets`, `--adaptive`)? The
     /// GPU backend then holds a buffer of 4 bytes per pixel for them.
     pub adaptive: bool,
+    /// Photon mapping only: photons per pass (`--photons`); `None`: one per pixel.
+    pub photons: Option<u32>,
+    /// Photon mapping only: the initial gather radius in pixel footprints (`--sppm-radius`);
+    /// `None`: `integrator::sppm::DEFAULT_SPPM_RADIUS_PIXELS`.
+    pub sppm_radius: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -65,6 +70,8 @@ impl Default for RenderSettings {
             record_strategies: false,
             aovs: false,
             adaptive: false,
+            photons: None,
+            sppm_radius: None,
         }
     }
 }
@@ -161,6 +168,34 @@ impl RenderSettings {
                 )));
             }
         }
+        if self.integrator != Integrator::Sppm && (self.photons.is_some() || self.sppm_radius.is_some()) {
+            return Err(crate::Error::Settings(format!(
+                "--photons and --sppm-radius are options of --integrator sppm, not of --integrator {}",
+                self.integrator
+            )));
+        }
+        if let Some(n) = self.photons {
+            if !(1..=crate::integrator::sppm::MAX_PHOTONS_PER_PASS).contains(&n) {
+                return Err(crate::Error::Settings(format!(
+                    "--photons must be between 1 and {} per pass, not {n}",
+                    crate::integrator::sppm::MAX_PHOTONS_PER_PASS
+                )));
+            }
+        }
+        if let Some(r) = self.sppm_radius {
+            if !(r.is_finite() && r > 0.0 && r <= 1e4) {
+                return Err(crate::Error::Settings(format!(
+                    "--sppm-radius is the initial gather radius in pixel footprints: a number in (0, 10000], not {r}"
+                )));
+            }
+        }
+        if self.integrator == Integrator::Sppm && self.max_depth.is_some() {
+            return Err(crate::Error::Settings(
+                "--max-depth is not supported by --integrator sppm yet: its camera paths and photons \
+                 split a path's bounces between them"
+                    .into(),
+            ));
+        }
         if self.adaptive && self.integrator != Integrator::Path {
             return Err(crate::Error::Settings(format!(
                 "--adaptive renders with --integrator path only, not {}: a bidirectional pass \
@@ -197,6 +232,10 @@ pub trait Backend {
     /// Every pixel's auxiliary images (`crate::integrator::aov`), row-major from the top row,
     /// through the current camera.
     fn aovs(&mut self) -> Result<Vec<crate::scene::layout::PixelAov>>;
+    /// What the photon passes counted (`None` for other integrators).
+    fn sppm_stats(&mut self) -> Option<crate::integrator::sppm::SppmStats> {
+        None
+    }
     /// What bidirectional path tracing counted (`None` for other integrators).
     fn bdpt_stats(&mut self) -> Option<crate::integrator::bdpt::BdptStats> {
         None

@@ -144,7 +144,10 @@ fn bad_input_gets_a_clear_error() {
     assert!(e.contains("/nonexistent-dir/x.exr"), "{e}");
     // An integrator that does not exist is refused, listing the ones that do.
     let e = run(&["render", cornell.to_str().unwrap(), "--integrator", "photon", "-o", out]);
-    assert!(e.contains("'photon'") && e.contains("[possible values: path, bdpt]"), "{e}");
+    assert!(e.contains("'photon'") && e.contains("[possible values: path, bdpt, sppm]"), "{e}");
+    // A photon-mapping option without photon mapping is refused, naming both.
+    let e = run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "--photons", "1000", "-o", out]);
+    assert!(e.contains("--photons") && e.contains("not of --integrator path"), "{e}");
     // A bidirectional option without the bidirectional integrator is refused, naming both.
     let e =
         run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "--bdpt-strategy", "2,2", "-o", out]);

@@ -343,6 +343,32 @@ impl GltfBsdf {
             || (self.p_transmit > 0.0 && !self.transmission_is_delta)
     }
 
+    /// The probability that [`Self::sample`] chooses a non-delta lobe: the mass of the
+    /// mixture density [`Self::pdf`] over all directions. A photon-mapping visible point
+    /// (`crate::integrator::sppm`) is made where a sample chose one, weighted by its inverse.
+    pub fn non_delta_probability(&self) -> f32 {
+        if self.lambertian {
+            return 1.0;
+        }
+        let mut p = self.p_diffuse + self.p_sheen;
+        if self.coat_alpha > 0.0 {
+            p += self.p_coat;
+        }
+        if self.alpha > 0.0 {
+            p += self.p_reflect;
+        }
+        if !self.transmission_is_delta {
+            p += self.p_transmit;
+        }
+        p
+    }
+
+    /// Has it a diffuse lobe (Lambert or sheen)? Photon mapping gathers photons where it has
+    /// (`crate::integrator::sppm`).
+    pub fn has_diffuse_lobe(&self) -> bool {
+        self.p_diffuse > 0.0 || self.p_sheen > 0.0
+    }
+
     /// Is this nothing but the diffuse lobe, f = baseColor/π?
     pub fn is_lambertian(&self) -> bool {
         self.lambertian

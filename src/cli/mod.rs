@@ -99,6 +99,13 @@ pub struct SceneArgs {
     /// densities).
     #[arg(long, value_name = "S,T", value_parser = parse_strategy)]
     pub bdpt_strategy: Option<(u32, u32)>,
+    /// With --integrator sppm: photons traced per pass (default: one per pixel).
+    #[arg(long, value_name = "N")]
+    pub photons: Option<u32>,
+    /// With --integrator sppm: the initial photon gather radius, in pixel footprints at
+    /// each pixel's first visible point (default 3).
+    #[arg(long, value_name = "PIXELS")]
+    pub sppm_radius: Option<f32>,
     /// Camera index in the file (default: the first camera, or one framing the scene).
     #[arg(long)]
     pub camera: Option<usize>,
@@ -161,6 +168,8 @@ impl SceneArgs {
             light_tracing: !self.no_light_tracing,
             bdpt_strategy: self.bdpt_strategy,
             record_strategies: false,
+            photons: self.photons,
+            sppm_radius: self.sppm_radius,
             sampler: match self.sampler {
                 SamplerChoice::Sobol => pathlight::sampling::SamplerKind::Sobol,
                 SamplerChoice::Independent => pathlight::sampling::SamplerKind::Independent,

@@ -260,6 +260,20 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
             pathlight::integrator::bdpt::BDPT_MAX_VERTICES
         );
     }
+    if let Some(sppm) = session.sppm_stats() {
+        let per_pass = sppm.stored_photons as f64 / sppm.passes.max(1) as f64;
+        eprintln!(
+            "sppm: {} passes, {per_pass:.0} photons stored per pass; the variance channels and the predicted error measure its noise, not the bias of its gather radius",
+            sppm.passes
+        );
+        if sppm.dropped_photons > 0 {
+            eprintln!(
+                "warning: sppm dropped {} photon records past the bound of {} per pass (the image is darker where they landed); lower --photons",
+                sppm.dropped_photons,
+                pathlight::integrator::sppm::MAX_PHOTON_RECORDS
+            );
+        }
+    }
     if let Some(dir) = &args.bdpt_strategies {
         write_strategy_images(&mut session, dir, width as usize, height as usize)?;
     }

@@ -7,6 +7,7 @@ use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, Str
 use crate::integrator::delta_view::camera_sees_only_delta_surfaces;
 use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
+use crate::integrator::sppm::{sppm_film, sppm_pass, SppmContext, SppmPixel, SppmSettings, SppmStats};
 use crate::integrator::{path::radiance, Integrator, IntegratorSettings};
 use crate::render::{Backend, RenderSettings};
 use crate::sampling::{replicate_of, PathSampler, Rng};
@@ -63,6 +64,16 @@ pub struct CpuBackend<'a> {
     strategies: Option<(StrategyImages, u32)>,
     /// Adaptive sampling: pixel i takes sample indices below `budgets[i]` only.
     budgets: Option<Vec<u32>>,
+    /// Stochastic progressive photon mapping: every pixel's state, and the passes taken
+    /// (`film` then holds the per-pass estimates, `crate::integrator::sppm`).
+    sppm: Option<SppmRender>,
+}
+
+/// A photon-mapping render's progressive state.
+struct SppmRender {
+    pixels: Vec<SppmPixel>,
+    passes: u32,
+    stats: SppmStats,
 }
 
 /// A bidirectional sample's destination: its own pixel's sum, the t = 1 splats, and each
@@ -108,6 +119,7 @@ impl<'a> CpuBackend<'a> {
             bdpt_stats: BdptStats::default(),
             strategies: settings.record_strategies.then(|| (StrategyImages::new(), 0)),
             budgets: None,
+            sppm: (settings.integrator == Integrator::Sppm).then(|| SppmRender::new(settings)),
         }
     }
 
@@ -142,7 +154,60 @@ impl<'a> CpuBackend<'a> {
     }
 }
 
+impl SppmRender {
+    fn new(settings: &RenderSettings) -> SppmRender {
+        let pixels = settings.width as usize * settings.height as usize;
+        SppmRender { pixels: vec![SppmPixel::default(); pixels], passes: 0, stats: SppmStats::default() }
+    }
+}
+
 impl CpuBackend<'_> {
+    /// The photon passes' settings (`RenderSettings::photons`, `sppm_radius`).
+    fn sppm_settings(&self) -> SppmSettings {
+        let s = &self.settings;
+        SppmSettings {
+            photons: s.photons.unwrap_or(s.width * s.height),
+            radius_pixels: s.sppm_radius.unwrap_or(crate::integrator::sppm::DEFAULT_SPPM_RADIUS_PIXELS),
+        }
+    }
+
+    /// Photon-mapping pass `k`: the next pass, or the one just taken (a viewer asks for a
+    /// pass band by band; the whole pass is taken for its first band).
+    fn render_sppm_pass(&mut self, k: u32) -> crate::Result<()> {
+        let integrator = self.integrator_settings();
+        let sppm = self.sppm_settings();
+        let state = self.sppm.as_mut().expect("an sppm render has its state");
+        if k + 1 == state.passes {
+            return Ok(());
+        }
+        if k != state.passes {
+            return Err(crate::Error::Settings(format!(
+                "photon-mapping pass {k} asked for after {} passes: its passes depend on the ones before and run in order",
+                state.passes
+            )));
+        }
+        let s = &self.settings;
+        let ctx = SppmContext {
+            scene: &self.scene,
+            camera: &self.camera,
+            settings: &integrator,
+            sppm,
+            width: s.width,
+            height: s.height,
+            seed: s.seed,
+            sampler: s.sampler,
+            passes: s.spp,
+        };
+        sppm_pass(&ctx, k, &mut state.pixels, &mut self.film, &mut self.rays, &mut state.stats);
+        state.passes += 1;
+        Ok(())
+    }
+
+    /// What the photon passes counted (`None` for other integrators).
+    pub fn sppm_stats(&self) -> Option<SppmStats> {
+        self.sppm.as_ref().map(|s| s.stats)
+    }
+
     /// The light tracer's paths for sample index `k`: one per pixel that takes it.
     fn light_paths(&self, k: u32) -> usize {
         let pixels = self.settings.width as usize * self.settings.height as usize;
@@ -323,7 +388,9 @@ impl CpuBackend<'_> {
                             generate_camera_ray(camera, width, height, x as u32, y as u32, sampler.next_2d());
                         let l = match s.integrator {
                             Integrator::Path => radiance(scene, integrator, ray, cone, &mut sampler, rays),
-                            Integrator::Bdpt => unreachable!("bidirectional passes are rendered whole"),
+                            Integrator::Bdpt | Integrator::Sppm => {
+                                unreachable!("bidirectional and photon-mapping passes are rendered whole")
+                            }
                         };
                         film_add_sample(pixel, l + light_traced, replicate_of(k));
                     }
@@ -339,11 +406,20 @@ impl Backend for CpuBackend<'_> {
     }
 
     fn render(&mut self, sample_offset: u32, samples: u32) -> crate::Result<()> {
+        if self.sppm.is_some() {
+            for k in sample_offset..sample_offset + samples {
+                self.render_sppm_pass(k)?;
+            }
+            return Ok(());
+        }
         self.render_band(sample_offset..sample_offset + samples, 0..self.settings.height);
         Ok(())
     }
 
     fn render_rows(&mut self, sample_index: u32, rows: std::ops::Range<u32>) -> crate::Result<()> {
+        if self.sppm.is_some() {
+            return self.render_sppm_pass(sample_index);
+        }
         self.render_band(sample_index..sample_index + 1, rows);
         Ok(())
     }
@@ -356,6 +432,9 @@ impl Backend for CpuBackend<'_> {
         self.bdpt_stats = BdptStats::default();
         if let Some(strategies) = self.strategies.as_mut() {
             *strategies = (StrategyImages::new(), 0);
+        }
+        if self.sppm.is_some() {
+            self.sppm = Some(SppmRender::new(&self.settings));
         }
         Ok(())
     }
@@ -379,7 +458,12 @@ impl Backend for CpuBackend<'_> {
     }
 
     fn film(&mut self) -> crate::Result<Film> {
-        Ok(self.film.clone())
+        match &self.sppm {
+            Some(state) => {
+                Ok(sppm_film(&self.film, &state.pixels, state.passes, self.sppm_settings().photons))
+            }
+            None => Ok(self.film.clone()),
+        }
     }
 
     fn aovs(&mut self) -> crate::Result<Vec<crate::scene::layout::PixelAov>> {
@@ -394,11 +478,16 @@ impl Backend for CpuBackend<'_> {
     }
 
     fn rays_traced(&mut self) -> crate::Result<u64> {
-        Ok(self.rays.iter().sum::<u64>() + self.light_rays)
+        let photon_rays = self.sppm.as_ref().map_or(0, |s| s.stats.photon_rays);
+        Ok(self.rays.iter().sum::<u64>() + self.light_rays + photon_rays)
     }
 
     fn strategy_images(&mut self) -> crate::Result<Option<StrategyImages>> {
         Ok(CpuBackend::strategy_images(self))
+    }
+
+    fn sppm_stats(&mut self) -> Option<SppmStats> {
+        CpuBackend::sppm_stats(self)
     }
 
     fn bdpt_stats(&mut self) -> Option<BdptStats> {

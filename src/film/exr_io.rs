@@ -162,6 +162,7 @@ pub fn write_exr_with(film: &Film, meta: &RenderMetadata, extras: &ExrExtras, pa
     put("pathlight.spp", AttributeValue::I32(meta.spp() as i32));
     put("pathlight.seed", AttributeValue::Text(Text::from(meta.seed.to_string().as_str())));
     put("pathlight.integrator", AttributeValue::Text(Text::from(meta.integrator.name())));
+    put("pathlight.variance", AttributeValue::Text(Text::from(meta.integrator.variance_meaning())));
     put("pathlight.backend", AttributeValue::Text(Text::from(meta.backend.as_str())));
     put("pathlight.renderSeconds", AttributeValue::F64(meta.render_seconds));
     put(

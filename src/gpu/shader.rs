@@ -50,6 +50,9 @@ pub fn integrator_files(integrator: Integrator) -> &'static [ShaderFile] {
     match integrator {
         Integrator::Path => PATH_FILES,
         Integrator::Bdpt => BDPT_FILES,
+        // No kernel yet (`Integrator::has_gpu_kernel`): `GpuContext` refuses it before any
+        // source is composed.
+        Integrator::Sppm => &[],
     }
 }
 

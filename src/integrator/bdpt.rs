@@ -103,7 +103,7 @@ impl std::ops::AddAssign for BdptStats {
 
 /// What kind of point a vertex is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Kind {
+pub(crate) enum Kind {
     Camera,
     /// A point on an emissive triangle (a light subpath's origin, or a light sample).
     TriangleLight,
@@ -120,10 +120,10 @@ enum Kind {
 /// A surface vertex's record: the interaction as its own subpath arrived at it, the BSDF
 /// built for that arrival, and the hit (to see the point again from other directions).
 #[derive(Clone, Copy)]
-struct Surface {
-    si: SurfaceInteraction,
+pub(crate) struct Surface {
+    pub(crate) si: SurfaceInteraction,
     material: Material,
-    bsdf: GltfBsdf,
+    pub(crate) bsdf: GltfBsdf,
     hit: ClosestHit,
     /// The interaction is the same from every direction on its geometric side (no vertex
     /// normals, normal map or coat normal map): [`Vertex::seen_from`] skips rebuilding it.
@@ -132,17 +132,17 @@ struct Surface {
 
 /// A subpath vertex (pbrt-v3 `Vertex`).
 #[derive(Clone, Copy)]
-struct Vertex {
-    kind: Kind,
-    p: Vec3,
+pub(crate) struct Vertex {
+    pub(crate) kind: Kind,
+    pub(crate) p: Vec3,
     /// Surfaces: the unit geometric normal (winding). Triangle lights: the normal of the side
     /// the path left from. Environment and directional lights: see [`Kind`]. Else zero.
-    n: Vec3,
-    surface: Option<Surface>,
+    pub(crate) n: Vec3,
+    pub(crate) surface: Option<Surface>,
     /// The light's index in the light array (light vertices).
     light: u32,
     /// Throughput of the subpath up to this vertex, its scattering here excluded.
-    beta: Vec3,
+    pub(crate) beta: Vec3,
     /// Density, per unit area (per solid angle at infinity), with which the vertex's own
     /// subpath produced it.
     pdf_fwd: f32,
@@ -434,7 +434,7 @@ pub fn bdpt_sample(
 
 /// Which quantity a subpath carries.
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum Transport {
+pub(crate) enum Transport {
     /// The camera subpath: radiance, as the path tracer carries it.
     Radiance,
     /// The light subpath: importance (the module's "Adjoint").
@@ -443,7 +443,7 @@ enum Transport {
 
 /// Where a random walk draws its numbers from: the camera's sampler or a light path's
 /// stream.
-trait WalkNumbers {
+pub(crate) trait WalkNumbers {
     fn u32(&mut self) -> u32;
     fn lobe(&mut self, used: bool) -> f32;
     fn direction(&mut self) -> Vec2;
@@ -487,7 +487,7 @@ impl WalkNumbers for Rng {
 
 /// A subpath being traced (pbrt-v3 `RandomWalk`, one vertex at a time): the ray to trace
 /// next, the throughput it carries, and what roulette needs.
-struct Walk {
+pub(crate) struct Walk {
     ray: Ray,
     beta: Vec3,
     /// The density per solid angle with which `ray`'s direction was chosen (0 after a
@@ -510,7 +510,7 @@ impl Walk {
 
     /// Traces the ray from vertex `from`: the vertex it reaches (for the camera subpath, the
     /// environment where it leaves the scene), with its forward density.
-    fn trace(
+    pub(crate) fn trace(
         &mut self,
         ctx: &BdptContext,
         numbers: &mut impl WalkNumbers,
@@ -563,7 +563,7 @@ impl Walk {
     /// Samples the BSDF at `v`, vertex `here` of its subpath (reached from `from`), and plays
     /// roulette. Sets `v.delta`; returns the reverse density of `from` (in its measure) if
     /// the walk goes on along the new ray, `None` if it ends.
-    fn scatter(
+    pub(crate) fn scatter(
         &mut self,
         ctx: &BdptContext,
         numbers: &mut impl WalkNumbers,
@@ -646,7 +646,7 @@ impl Walk {
 }
 
 /// The light subpath y₀ …: a light chosen by power (the alias table), a point on it and a
-/// direction from it, then a random walk carrying importance.
+/// direction from it ([`light_subpath_origin`]), then a random walk carrying importance.
 fn light_subpath(
     ctx: &BdptContext,
     rng: &mut Rng,
@@ -654,9 +654,30 @@ fn light_subpath(
     rays: &mut u64,
     stats: &mut BdptStats,
 ) {
-    let scene = ctx.scene;
+    let Some((y0, mut walk)) = light_subpath_origin(ctx.scene, rng) else { return };
+    vertices.push(y0);
+    loop {
+        let here = vertices.len();
+        let Some(mut v) = walk.trace(ctx, rng, &vertices[here - 1], rays) else { return };
+        let rev = walk.scatter(ctx, rng, &mut v, &vertices[here - 1], here);
+        vertices.push(v);
+        let Some(rev) = rev else { return };
+        vertices[here - 1].pdf_rev = rev;
+        if vertices.len() == BDPT_MAX_VERTICES {
+            stats.truncated += 1;
+            return;
+        }
+    }
+}
+
+/// A light subpath's origin y₀ and the walk leaving it: a light chosen by power (the alias
+/// table), a point on it and a direction from it, drawn from `rng` in the order the
+/// module's "Random numbers" gives. Lights at infinity (directional, environment) send
+/// their paths from a disk covering the scene. `None` where the scene has no light or the
+/// sample carries nothing. Photon tracing (`super::sppm`) starts its photons here too.
+pub(crate) fn light_subpath_origin(scene: &FlatScene, rng: &mut Rng) -> Option<(Vertex, Walk)> {
     if scene.lights.is_empty() {
-        return;
+        return None;
     }
     let index = choose_light(&scene.lights, rng.next_2d());
     let u_point = rng.next_2d();
@@ -665,16 +686,14 @@ fn light_subpath(
     let light = &scene.lights[index];
     let pmf = light.pmf;
     if pmf <= 0.0 {
-        return;
+        return None;
     }
     let disk_area = std::f32::consts::PI * scene.scene_radius * scene.scene_radius;
     // (y₀, the ray leaving it, throughput carried by the ray, its direction's density, y₁'s
     // density per unit area before the cosine at y₁).
     let (y0, ray, beta, pdf_direction) = match light.kind {
         LIGHT_TRIANGLE => {
-            let Some(e) = sample_triangle_emission(scene, light, u_point, u_side, u_direction) else {
-                return;
-            };
+            let e = sample_triangle_emission(scene, light, u_point, u_side, u_direction)?;
             let y0 = Vertex::endpoint(
                 Kind::TriangleLight,
                 e.point,
@@ -713,36 +732,20 @@ fn light_subpath(
         }
         LIGHT_ENVIRONMENT => {
             let env = &scene.environment;
-            let Some((to_env, le, pdf)) = sample_environment(&env.params, &env.texels, &env.cdf, u_direction)
-            else {
-                return;
-            };
+            let (to_env, le, pdf) = sample_environment(&env.params, &env.texels, &env.cdf, u_direction)?;
             let origin = disk_point(scene, to_env, u_point);
             let y0 = Vertex::endpoint(Kind::Environment, Vec3::ZERO, to_env, index as u32, le, pmf * pdf);
             let ray = Ray { origin, direction: -to_env, t_max: f32::MAX };
             (y0, ray, le * (disk_area / (pmf * pdf)), 1.0)
         }
-        _ => return,
+        _ => return None,
     };
     if !beta.is_finite() || beta.max_element() <= 0.0 {
-        return;
+        return None;
     }
-    vertices.push(y0);
     // Lights at infinity send y₁ the density of the disk's point (`convert_density`).
     let pdf_solid_angle = if y0.at_infinity() { 1.0 / disk_area } else { pdf_direction };
-    let mut walk = Walk::new(ray, beta, pdf_solid_angle, Transport::Importance);
-    loop {
-        let here = vertices.len();
-        let Some(mut v) = walk.trace(ctx, rng, &vertices[here - 1], rays) else { return };
-        let rev = walk.scatter(ctx, rng, &mut v, &vertices[here - 1], here);
-        vertices.push(v);
-        let Some(rev) = rev else { return };
-        vertices[here - 1].pdf_rev = rev;
-        if vertices.len() == BDPT_MAX_VERTICES {
-            stats.truncated += 1;
-            return;
-        }
-    }
+    Some((y0, Walk::new(ray, beta, pdf_solid_angle, Transport::Importance)))
 }
 
 /// A point on the disk of the scene's bounding sphere facing direction `towards` (unit),

@@ -5,6 +5,7 @@
 //! |---|---|---|---|
 //! | unidirectional path tracing with next-event estimation and MIS, its caustics optionally left to a light tracer | `path` | [`path`], [`light_tracing`] | `shaders/path.wgsl`, `shaders/light_tracing.wgsl` |
 //! | bidirectional path tracing, every strategy weighted by MIS | `bdpt` | [`bdpt`] | `shaders/bdpt.wgsl` |
+//! | stochastic progressive photon mapping (biased, consistent) | `sppm` | [`sppm`] | none yet: the GPU backend refuses it |
 //!
 //! What every integrator shares lives beside them, each with a WGSL twin of the same name:
 //! * [`interaction`]: the surface record built at every path vertex and the side test of a
@@ -32,6 +33,7 @@ pub mod mis;
 pub mod partition;
 pub mod path;
 pub mod roulette;
+pub mod sppm;
 
 pub use interaction::{first_hit, sides_agree, surface_interaction, SurfaceInteraction};
 pub use light_tracing::{
@@ -54,26 +56,51 @@ pub enum Integrator {
     /// Bidirectional path tracing with every strategy weighted by MIS (Veach 1997, ch. 10;
     /// [`bdpt`]).
     Bdpt,
+    /// Stochastic progressive photon mapping (Hachisuka & Jensen 2009; [`sppm`]): biased,
+    /// its bias shrinking with the passes; CPU only so far.
+    Sppm,
 }
 
 impl Integrator {
     /// Every integrator, in the order `--integrator` lists them.
-    pub const ALL: [Integrator; 2] = [Integrator::Path, Integrator::Bdpt];
+    pub const ALL: [Integrator; 3] = [Integrator::Path, Integrator::Bdpt, Integrator::Sppm];
 
     /// The name `--integrator` takes and outputs record.
     pub fn name(self) -> &'static str {
         match self {
             Integrator::Path => "path",
             Integrator::Bdpt => "bdpt",
+            Integrator::Sppm => "sppm",
         }
     }
 
-    /// Does the GPU backend have a kernel for it? (Every integrator so far has one; one
-    /// still to come may not, and then the GPU backend refuses it and `--backend auto`
-    /// renders it on the CPU.)
+    /// Does the GPU backend have a kernel for it? Where it has none the GPU backend refuses
+    /// it and `--backend auto` renders it on the CPU.
     pub fn has_gpu_kernel(self) -> bool {
         match self {
             Integrator::Path | Integrator::Bdpt => true,
+            Integrator::Sppm => false,
+        }
+    }
+
+    /// Is it unbiased? A biased integrator's variance channels measure its noise, not its
+    /// error; its bias is stated where it is built.
+    pub fn is_unbiased(self) -> bool {
+        match self {
+            Integrator::Path | Integrator::Bdpt => true,
+            Integrator::Sppm => false,
+        }
+    }
+
+    /// What the EXR's variance channels measure under this integrator
+    /// (`pathlight.variance`).
+    pub fn variance_meaning(self) -> &'static str {
+        match self {
+            Integrator::Path | Integrator::Bdpt => "the sample variance of each pixel's independent samples",
+            Integrator::Sppm => {
+                "the spread of each pixel's per-pass estimates (each at its pass's photon radius): noise only; \
+                 the bias of the radius is not in it, nor in the predicted error"
+            }
         }
     }
 

@@ -104,6 +104,10 @@ pub struct SessionOptions {
     pub bdpt_strategy: Option<(u32, u32)>,
     /// `RenderSettings::record_strategies` (`--bdpt-strategies`).
     pub record_strategies: bool,
+    /// `RenderSettings::photons` (`--photons`).
+    pub photons: Option<u32>,
+    /// `RenderSettings::sppm_radius` (`--sppm-radius`).
+    pub sppm_radius: Option<f32>,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
     pub device: Option<String>,
@@ -138,6 +142,8 @@ impl SessionOptions {
             light_tracing: true,
             bdpt_strategy: None,
             record_strategies: false,
+            photons: None,
+            sppm_radius: None,
             backend: BackendChoice::Auto,
             device: None,
             outputs: OutputOptions::default(),
@@ -266,6 +272,8 @@ impl Session {
             splits: options.splits.unwrap_or(1),
             bdpt_strategy: options.bdpt_strategy,
             record_strategies: options.record_strategies,
+            photons: options.photons,
+            sppm_radius: options.sppm_radius,
             aovs: options.outputs.needs_aovs() || options.aovs_available,
             adaptive: options.adaptive.is_some(),
             ..RenderSettings::default()
@@ -278,6 +286,15 @@ impl Session {
                     "--adaptive renders whole images: a part (--samples, --shard) cannot take it yet".into(),
                 ));
             }
+        }
+        if options.integrator == Integrator::Sppm
+            && options.samples.as_ref().is_some_and(|r| *r != (0..options.spp))
+        {
+            return Err(Error::Settings(
+                "--integrator sppm renders whole images: its passes shrink radii the next pass reads, \
+                 so a part (--samples, --shard) cannot be rendered apart or merged"
+                    .into(),
+            ));
         }
         if let Some(denoiser) = options.outputs.denoiser {
             denoiser.check_available()?;
@@ -599,6 +616,11 @@ impl Session {
     /// What bidirectional path tracing counted (`None` for other integrators).
     pub fn bdpt_stats(&mut self) -> Option<crate::integrator::bdpt::BdptStats> {
         self.backend.bdpt_stats()
+    }
+
+    /// What the photon passes counted (`None` for other integrators).
+    pub fn sppm_stats(&mut self) -> Option<crate::integrator::sppm::SppmStats> {
+        self.backend.sppm_stats()
     }
 
     /// Forgets every sample (the camera or the scene changed).

@@ -1,0 +1,660 @@
+//! Stochastic progressive photon mapping (Hachisuka & Jensen 2009, "Stochastic Progressive
+//! Photon Mapping"; pbrt-v3 §16.2, pbrt-v4 `SPPMIntegrator`): the estimator that renders
+//! light no path tracer can sample, such as a caustic seen through glass or in a mirror
+//! (specular–diffuse–specular paths), and converges as its passes add up.
+//!
+//! Each pass (one "sample per pixel" of the render loop):
+//! 1. **Visible points.** Every pixel traces one camera path through delta lobes (mirror,
+//!    smooth glass) and through BSDFs with glossy lobes only (metals, rough glass: photons
+//!    gathered on a narrow lobe would be noise; pbrt-v4 does the same), path traced, to the
+//!    first vertex with a diffuse lobe where its BSDF sample chose a non-delta lobe. On
+//!    the way it adds what needs no photons: emission seen directly or through delta lobes,
+//!    at every vertex with a non-delta lobe one light sample (next-event estimation), and
+//!    at the visible point the emitter its own BSDF sample sees, the two weighted by the
+//!    power heuristic as the path tracer weighs them (the photons leave direct light to
+//!    them). Where the sample chose a delta lobe
+//!    the path goes on; where it chose a non-delta one the vertex becomes the pixel's
+//!    visible point, its throughput divided by the probability of that choice
+//!    ([`GltfBsdf::non_delta_probability`]) so that the two branches together are unbiased.
+//! 2. **Photons.** `photons` light paths, started as bidirectional path tracing starts its
+//!    light subpaths (`super::bdpt::light_subpath_origin`: every light kind, the
+//!    environment from a disk covering the scene) and walked with its importance transport
+//!    (the adjoint BSDF and shading-normal factor, Veach 1997 §5.3). Each surface the walk
+//!    reaches after its first bounce and that has a non-delta lobe stores a photon: the
+//!    first hits are direct light, which step 1 took.
+//! 3. **Grid.** The photons are sorted into a uniform hash grid by count, prefix sum and
+//!    scatter ([`PhotonGrid`]): every photon lands in its cell's run, in photon order, so a
+//!    gather reads the same photons in the same order on any thread count.
+//! 4. **Update.** Each visible point gathers the photons within its pixel's radius r whose
+//!    surface faces its own (geometric normals within [`NORMAL_AGREEMENT`]), Φ = Σ β_p
+//!    f(ω_o, ω_p) |ω_p·n_s| / |ω_p·n_g| (the last ratio turns flux per unit of geometric area
+//!    into the shading normal's cosine), M of them; then pbrt's update with α = 2/3:
+//!    N' = N + αM, r' = r √(N'/(N + M)), τ' = (τ + β Φ) r'²/r².
+//!
+//! After n passes of N_p photons a pixel is L = Σ L_direct / n + τ / (n N_p π r²). Its bias
+//! (the blur of the radius) falls as r shrinks; r² falls roughly as n^(α−1) where photons
+//! are dense (Knaus & Zwicker 2011, "Progressive Photon Mapping: A Probabilistic Approach").
+//!
+//! **Variance channels.** A pixel's passes are not independent samples of one mean (they
+//! share the radius and τ), so the film's Welford statistics are kept over each pass's own
+//! estimate ℓ_k = L_direct,k + β_k Φ_k / (N_p π r_k²) with the radius it gathered at: their
+//! spread across passes measures the noise, the film's mean is set to L above, and the
+//! replicates (even and odd passes) keep their difference. The predicted error covers the
+//! noise only, never the bias.
+//!
+//! **Initial radius.** `radius_pixels` pixel footprints at the pixel's first visible point
+//! (the camera ray cone's width at the distance travelled): scale-free, as a world-space
+//! radius is not.
+//!
+//! **Random numbers.** The camera path draws from its pixel's [`PathSampler`] for sample
+//! index k: pixel jitter (2-D), then per vertex [alpha], the light sample (2-D) and [alpha]
+//! for its shadow ray where the BSDF has a non-delta lobe, lobe, direction (2-D), then at
+//! the visible point [alpha] for the BSDF sample's ray, else [roulette]. Photon i of pass k draws from `Rng::new(i, PHOTON_STREAM, k, seed)` in
+//! bidirectional path tracing's light-subpath order.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::bdpt::{light_subpath_origin, BdptContext};
+use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
+use super::mis::power_heuristic;
+use super::roulette::{survival_probability, MAX_BOUNCES_GUARD, RR_ANY_BOUNCE_DEPTH};
+use super::IntegratorSettings;
+use crate::bsdf::{BsdfSample, GltfBsdf};
+use crate::film::{film_add_sample, Film};
+use crate::geometry::spawn_ray;
+use crate::light::{environment_lookup, sample_light, triangle_light_pdf, LightArrays};
+use crate::sampling::{replicate_of, PathSampler, Rng, SamplerKind};
+use crate::scene::camera::{camera_ray_cone, generate_camera_ray};
+use crate::scene::layout::{Camera, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
+use crate::scene::texture::{emitted_radiance, textured_material};
+use crate::scene::FlatScene;
+
+/// The radius update's α (Hachisuka & Jensen 2009, eq. 6; pbrt-v4's γ = 2/3): the fraction
+/// of a pass's photons a pixel keeps. Smaller shrinks the radius faster (less bias, more
+/// noise); 2/3 is the value Knaus & Zwicker 2011 show balances the two asymptotically.
+pub const SPPM_ALPHA: f32 = 2.0 / 3.0;
+
+/// The row of [`Rng::new`] photons draw from: no pixel has it (fewer than 2²⁸ rows), and
+/// the light tracer's paths have `LIGHT_PATH_STREAM` (u32::MAX).
+pub const PHOTON_STREAM: u32 = u32::MAX - 1;
+
+/// The initial radius in pixel footprints unless told otherwise (`--sppm-radius`): wide
+/// enough that a pass of one photon per pixel finds a few photons in most pixels of the
+/// bundled scenes, narrow enough that the first passes' blur stays within a few pixels.
+pub const DEFAULT_SPPM_RADIUS_PIXELS: f32 = 3.0;
+
+/// The most photons one pass may trace (`--photons`).
+pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 24;
+
+/// The most photon records one pass keeps: 2²³ records of [`Photon`]'s 48 bytes, 384 MiB,
+/// plus 4 bytes each and per grid slot for the grid. Records past it are dropped and
+/// counted ([`SppmStats::dropped_photons`], reported by `render`): a dropped record
+/// darkens its pixels, so it is never silent.
+pub const MAX_PHOTON_RECORDS: usize = 1 << 23;
+
+/// A photon is gathered only where its surface's geometric normal is within 60° of the
+/// visible point's: photons on a wall meeting the floor at a corner would otherwise leak
+/// onto the floor within one radius of the corner (a bias that shrinks with the radius
+/// anyway, but shows in the first passes).
+pub const NORMAL_AGREEMENT: f32 = 0.5;
+
+/// Photons per rayon task: enough to amortise the task, few enough to balance the threads
+/// of a 128² pass.
+const PHOTONS_PER_TASK: usize = 1024;
+
+/// One stored photon: where it landed, where it came from, and what it carries.
+#[derive(Clone, Copy, Debug)]
+pub struct Photon {
+    pub p: Vec3,
+    /// Unit world direction back along the photon's last segment (towards the light's side).
+    pub wi: Vec3,
+    /// Flux carried, before the division by the pass's photon count.
+    pub beta: Vec3,
+    /// The surface's unit geometric normal (winding side).
+    pub n: Vec3,
+}
+
+/// A pixel's progressive state (pbrt-v4 `SPPMPixel`, without the visible point, which is
+/// rebuilt every pass).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SppmPixel {
+    /// The gather radius; 0 until the pixel's first visible point sets it.
+    pub radius: f32,
+    /// N: the photon count the radius stands for.
+    pub photon_count: f32,
+    /// τ: the flux gathered so far, scaled to the current radius.
+    pub tau: Vec3,
+    /// Σ over passes of the light that needs no photons.
+    pub direct: Vec3,
+}
+
+/// What a render's photon passes counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SppmStats {
+    pub passes: u64,
+    /// Photons stored over all passes.
+    pub stored_photons: u64,
+    /// Photon records dropped because a pass reached [`MAX_PHOTON_RECORDS`].
+    pub dropped_photons: u64,
+    /// Rays the photons traced.
+    pub photon_rays: u64,
+}
+
+/// The settings of one render's photon passes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SppmSettings {
+    /// Photons per pass.
+    pub photons: u32,
+    /// Initial radius in pixel footprints.
+    pub radius_pixels: f32,
+}
+
+/// What is constant over a render's passes.
+pub struct SppmContext<'a> {
+    pub scene: &'a FlatScene,
+    pub camera: &'a Camera,
+    pub settings: &'a IntegratorSettings,
+    pub sppm: SppmSettings,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub sampler: SamplerKind,
+    /// Passes the render will take (the texture level of detail of its camera rays).
+    pub passes: u32,
+}
+
+/// A pixel's visible point for one pass.
+#[derive(Clone, Copy)]
+struct VisiblePoint {
+    si: SurfaceInteraction,
+    bsdf: GltfBsdf,
+    /// The camera path's throughput over the probability of the non-delta choice.
+    beta: Vec3,
+    /// The camera ray cone's width there: one pixel's footprint.
+    footprint: f32,
+}
+
+/// One pixel's camera path of one pass: the light that needs no photons, and where the
+/// photons are to be gathered.
+struct CameraPath {
+    direct: Vec3,
+    visible: Option<VisiblePoint>,
+}
+
+/// Pass `k` of every pixel: adds its estimate to `film` (per-pass statistics, see the
+/// module's "Variance channels") and updates `pixels`. `rays` counts each pixel's camera
+/// and shadow rays; the photons' rays go to `stats`.
+pub fn sppm_pass(
+    ctx: &SppmContext,
+    k: u32,
+    pixels: &mut [SppmPixel],
+    film: &mut Film,
+    rays: &mut [u64],
+    stats: &mut SppmStats,
+) {
+    let w = ctx.width as usize;
+    let camera_paths: Vec<CameraPath> = rays
+        .par_chunks_mut(w)
+        .enumerate()
+        .flat_map_iter(|(y, rays)| {
+            rays.iter_mut()
+                .enumerate()
+                .map(move |(x, rays)| camera_path(ctx, x as u32, y as u32, k, rays))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    // A pixel's first visible point sets its radius.
+    for (pixel, path) in pixels.iter_mut().zip(&camera_paths) {
+        if let (0.0, Some(vp)) = (pixel.radius, &path.visible) {
+            let footprint = vp.footprint.max(ctx.scene.scene_radius * 1e-6);
+            pixel.radius = ctx.sppm.radius_pixels * footprint;
+        }
+    }
+    let (photons, photon_stats) = trace_photons(ctx, k);
+    *stats += photon_stats;
+    let mean_radius = {
+        let (sum, n) = pixels
+            .iter()
+            .zip(&camera_paths)
+            .filter(|(p, c)| c.visible.is_some() && p.radius > 0.0)
+            .fold((0.0f64, 0u64), |(s, n), (p, _)| (s + p.radius as f64, n + 1));
+        if n == 0 {
+            0.0
+        } else {
+            (sum / n as f64) as f32
+        }
+    };
+    let grid = PhotonGrid::build(&photons, 2.0 * mean_radius);
+    let photon_count = ctx.sppm.photons as f32;
+    pixels.par_iter_mut().zip(film.pixels.par_iter_mut()).zip(camera_paths.par_iter()).for_each(
+        |((pixel, film_pixel), path)| {
+            let mut estimate = path.direct;
+            pixel.direct += path.direct;
+            if let Some(vp) = &path.visible {
+                let (phi, m) = grid.gather(&photons, vp, pixel.radius);
+                let area = std::f32::consts::PI * pixel.radius * pixel.radius;
+                estimate += vp.beta * phi / (photon_count * area);
+                if m > 0 {
+                    let n = pixel.photon_count + SPPM_ALPHA * m as f32;
+                    let radius = pixel.radius * (n / (pixel.photon_count + m as f32)).sqrt();
+                    let shrink = (radius / pixel.radius) * (radius / pixel.radius);
+                    pixel.tau = (pixel.tau + vp.beta * phi) * shrink;
+                    pixel.photon_count = n;
+                    pixel.radius = radius;
+                }
+            }
+            film_add_sample(film_pixel, estimate, replicate_of(k));
+        },
+    );
+    stats.passes += 1;
+}
+
+/// The film of a render of `passes` passes of `photons` photons: each pixel's mean is the
+/// progressive estimate Σ L_direct / n + τ / (n N_p π r²), its variance and replicates
+/// those of its per-pass estimates in `per_pass` (moved by the same amount, so that their
+/// spread is kept).
+pub fn sppm_film(per_pass: &Film, pixels: &[SppmPixel], passes: u32, photons: u32) -> Film {
+    let mut film = per_pass.clone();
+    let n = passes.max(1) as f32;
+    for (p, s) in film.pixels.iter_mut().zip(pixels) {
+        let area = std::f32::consts::PI * s.radius * s.radius;
+        let photon_light = if area > 0.0 { s.tau / (n * photons as f32 * area) } else { Vec3::ZERO };
+        let value = s.direct / n + photon_light;
+        let shift = value - Vec3::from(p.mean);
+        if !shift.is_finite() {
+            continue;
+        }
+        p.mean = value.to_array();
+        if p.odd_count > 0 {
+            p.odd_mean = (Vec3::from(p.odd_mean) + shift).to_array();
+        }
+    }
+    film
+}
+
+/// Pixel (x, y)'s camera path of pass `k` (the module's step 1).
+fn camera_path(ctx: &SppmContext, x: u32, y: u32, k: u32, rays: &mut u64) -> CameraPath {
+    let scene = ctx.scene;
+    let lights = scene.light_arrays();
+    let mut sampler = PathSampler::new(ctx.sampler, x, y, k, ctx.seed);
+    let mut ray = generate_camera_ray(ctx.camera, ctx.width, ctx.height, x, y, sampler.next_2d());
+    let cone = camera_ray_cone(ctx.camera, ctx.height, ctx.passes);
+    let mut beta = Vec3::ONE;
+    let mut eta_scale = 1.0f32;
+    let mut travelled = 0.0f32;
+    let mut direct = Vec3::ZERO;
+    // The last bounce: a delta lobe (or the camera ray), else its density for MIS.
+    let mut prev_delta = true;
+    let mut prev_pdf = 0.0f32;
+    let mut non_delta_depth = 0u32;
+    for depth in 0..=MAX_BOUNCES_GUARD {
+        *rays += 1;
+        let alpha_seed = if scene.features.alpha { sampler.next_u32() } else { 0 };
+        let Some(hit) = scene.intersect_closest(&ray, alpha_seed) else {
+            let env = &scene.environment;
+            if env.params.present != 0 {
+                let (le, pdf_solid_angle) = environment_lookup(&env.params, &env.texels, ray.direction);
+                let weight = if prev_delta || env.params.light_index == INVALID_INDEX {
+                    1.0
+                } else {
+                    power_heuristic(
+                        prev_pdf,
+                        scene.lights[env.params.light_index as usize].pmf * pdf_solid_angle,
+                    )
+                };
+                direct += beta * le * weight;
+            }
+            break;
+        };
+        let si = surface_interaction(scene, &ray, &hit, cone.width_at(travelled + hit.hit.t));
+        travelled += si.distance;
+        let untextured = &scene.materials[si.material as usize];
+        let textured;
+        let material = if scene.features.textures {
+            textured = textured_material(untextured, &scene.texture_arrays(), si.uv, si.lod);
+            &textured
+        } else {
+            untextured
+        };
+        if material.flags & MATERIAL_VOLUME != 0 && !si.front_face {
+            beta *= (-Vec3::from(material.attenuation_coefficient) * si.distance).exp();
+        }
+        // Emission: in full when seen directly or through a delta lobe, else weighted
+        // against the light sample of the glossy vertex before, as the path tracer does.
+        if Vec3::from(untextured.emission).max_element() > 0.0
+            && (si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0)
+        {
+            if prev_delta || si.emitter == INVALID_INDEX {
+                direct += beta * Vec3::from(material.emission);
+            } else {
+                let light = &scene.lights[si.emitter as usize];
+                let b = Vec3::new(hit.hit.b0, hit.hit.b1, hit.hit.b2);
+                let le = emitted_radiance(&scene.texture_arrays(), untextured, hit.triangle as usize, b);
+                direct += beta * le * power_heuristic(prev_pdf, triangle_light_pdf(light, ray.origin, si.p));
+            }
+        }
+        if depth == MAX_BOUNCES_GUARD {
+            break;
+        }
+        let bsdf = GltfBsdf::new(material, si.wo, si.front_face, si.coat_normal);
+        if bsdf.has_non_delta() {
+            direct += light_sample(scene, lights, &si, &bsdf, beta, &mut sampler, rays);
+        }
+        let u_lobe = if bsdf.chooses_a_lobe() {
+            sampler.next_1d()
+        } else {
+            sampler.skip_1d();
+            0.0
+        };
+        let u_dir = sampler.next_direction_2d();
+        let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { break };
+        if !bs.is_delta && bsdf.has_diffuse_lobe() {
+            direct += bsdf_sampled_emission(scene, &si, &bs, beta, &mut sampler, rays);
+            let footprint = cone.width_at(travelled);
+            let visible = VisiblePoint { si, bsdf, beta: beta / bsdf.non_delta_probability(), footprint };
+            return CameraPath { direct, visible: beta.is_finite().then_some(visible) };
+        }
+        // A delta lobe, or a BSDF with glossy lobes only (a metal, a rough glass): the
+        // camera path goes on, path traced (pbrt-v4's SPPM does the same): photons
+        // gathered on a narrow lobe would be noise.
+        let wi_world = si.frame.from_local(bs.wi).normalize();
+        if !sides_agree(&si, wi_world, bs.wi) {
+            break;
+        }
+        beta *= bs.weight;
+        eta_scale *= bs.eta_scale;
+        if !beta.is_finite() {
+            return CameraPath { direct: Vec3::splat(f32::NAN), visible: None };
+        }
+        prev_delta = bs.is_delta;
+        prev_pdf = bs.pdf_solid_angle;
+        if !bs.is_delta {
+            non_delta_depth += 1;
+        }
+        ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
+        // Roulette as the path tracer plays it (`super::roulette`).
+        if non_delta_depth >= ctx.settings.rr_min_depth || depth + 1 >= RR_ANY_BOUNCE_DEPTH {
+            let q = survival_probability(beta, eta_scale);
+            if q <= 0.0 || sampler.next_1d() >= q {
+                break;
+            }
+            beta /= q;
+        }
+    }
+    CameraPath { direct, visible: None }
+}
+
+/// One light sample at `si` (next-event estimation, `super::path`'s), weighted by the
+/// power heuristic against the BSDF's sampling ([`bsdf_sampled_emission`] takes the
+/// other share), times the throughput `beta`.
+fn light_sample(
+    scene: &FlatScene,
+    lights: LightArrays,
+    si: &SurfaceInteraction,
+    bsdf: &GltfBsdf,
+    beta: Vec3,
+    sampler: &mut PathSampler,
+    rays: &mut u64,
+) -> Vec3 {
+    if scene.lights.is_empty() {
+        return Vec3::ZERO;
+    }
+    let u_light = sampler.next_2d();
+    let Some(ls) = sample_light(lights, si.p, si.p_error, si.n_geometric, u_light) else {
+        return Vec3::ZERO;
+    };
+    let wi = si.frame.to_local(ls.wi);
+    let f = if sides_agree(si, ls.wi, wi) { bsdf.eval(si.wo, wi) } else { Vec3::ZERO };
+    if f.max_element() <= 0.0 || ls.pdf <= 0.0 {
+        return Vec3::ZERO;
+    }
+    *rays += 1;
+    let alpha_seed = if scene.features.alpha { sampler.next_u32() } else { 0 };
+    if scene.intersect_any(&ls.shadow_ray, alpha_seed) {
+        return Vec3::ZERO;
+    }
+    let weight = if ls.is_delta { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(si.wo, wi)) };
+    beta * f * wi.z.abs() * ls.radiance * (weight / ls.pdf)
+}
+
+/// The emitter (or the environment) the visible point's own non-delta BSDF sample `bs`
+/// sees, weighted by the power heuristic against [`light_sample`]: direct light reflected
+/// by a glossy visible point is found by whichever strategy suits it, as the path tracer
+/// finds it. One ray per visible point.
+fn bsdf_sampled_emission(
+    scene: &FlatScene,
+    si: &SurfaceInteraction,
+    bs: &BsdfSample,
+    beta: Vec3,
+    sampler: &mut PathSampler,
+    rays: &mut u64,
+) -> Vec3 {
+    let wi_world = si.frame.from_local(bs.wi).normalize();
+    if !sides_agree(si, wi_world, bs.wi) {
+        return Vec3::ZERO;
+    }
+    let ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
+    let beta = beta * bs.weight;
+    *rays += 1;
+    let alpha_seed = if scene.features.alpha { sampler.next_u32() } else { 0 };
+    let Some(hit) = scene.intersect_closest(&ray, alpha_seed) else {
+        let env = &scene.environment;
+        if env.params.present == 0 {
+            return Vec3::ZERO;
+        }
+        let (le, pdf_solid_angle) = environment_lookup(&env.params, &env.texels, ray.direction);
+        let weight = if env.params.light_index == INVALID_INDEX {
+            1.0
+        } else {
+            power_heuristic(
+                bs.pdf_solid_angle,
+                scene.lights[env.params.light_index as usize].pmf * pdf_solid_angle,
+            )
+        };
+        return beta * le * weight;
+    };
+    let hit_si = surface_interaction(scene, &ray, &hit, 0.0);
+    let material = &scene.materials[hit_si.material as usize];
+    if Vec3::from(material.emission).max_element() <= 0.0
+        || !(hit_si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0)
+    {
+        return Vec3::ZERO;
+    }
+    let b = Vec3::new(hit.hit.b0, hit.hit.b1, hit.hit.b2);
+    let le = emitted_radiance(&scene.texture_arrays(), material, hit.triangle as usize, b);
+    let weight = if hit_si.emitter == INVALID_INDEX {
+        1.0
+    } else {
+        let light = &scene.lights[hit_si.emitter as usize];
+        power_heuristic(bs.pdf_solid_angle, triangle_light_pdf(light, ray.origin, hit_si.p))
+    };
+    beta * le * weight
+}
+
+/// Pass `k`'s photons (the module's step 2), in photon order.
+fn trace_photons(ctx: &SppmContext, k: u32) -> (Vec<Photon>, SppmStats) {
+    let count = ctx.sppm.photons as usize;
+    let bdpt = BdptContext::new(ctx.scene, ctx.camera, ctx.settings, ctx.width, ctx.height);
+    let tasks: Vec<(Vec<Photon>, u64)> = (0..count.div_ceil(PHOTONS_PER_TASK))
+        .into_par_iter()
+        .map(|task| {
+            let mut photons = Vec::new();
+            let mut rays = 0;
+            for i in task * PHOTONS_PER_TASK..((task + 1) * PHOTONS_PER_TASK).min(count) {
+                let mut rng = Rng::new(i as u32, PHOTON_STREAM, k, ctx.seed);
+                trace_photon(&bdpt, &mut rng, &mut photons, &mut rays);
+            }
+            (photons, rays)
+        })
+        .collect();
+    let mut stats = SppmStats::default();
+    let mut photons =
+        Vec::with_capacity(tasks.iter().map(|(p, _)| p.len()).sum::<usize>().min(MAX_PHOTON_RECORDS));
+    for (list, rays) in tasks {
+        stats.photon_rays += rays;
+        let room = MAX_PHOTON_RECORDS - photons.len();
+        stats.dropped_photons += list.len().saturating_sub(room) as u64;
+        photons.extend(list.into_iter().take(room));
+    }
+    stats.stored_photons = photons.len() as u64;
+    (photons, stats)
+}
+
+/// One photon's walk: a photon at every surface with a non-delta lobe from its second
+/// vertex on.
+fn trace_photon(ctx: &BdptContext, rng: &mut Rng, photons: &mut Vec<Photon>, rays: &mut u64) {
+    let Some((mut from, mut walk)) = light_subpath_origin(ctx.scene, rng) else { return };
+    for here in 1.. {
+        let Some(mut v) = walk.trace(ctx, rng, &from, rays) else { return };
+        if let Some(surface) = &v.surface {
+            if here >= 2 && surface.bsdf.has_non_delta() && v.beta.is_finite() {
+                photons.push(Photon { p: v.p, wi: surface.si.wo_world, beta: v.beta, n: v.n });
+            }
+        }
+        if walk.scatter(ctx, rng, &mut v, &from, here).is_none() {
+            return;
+        }
+        from = v;
+    }
+}
+
+/// The photons of a pass in a uniform hash grid (the module's step 3): cell (i, j, k) of
+/// edge `cell` holds the photons whose position falls in it, found through its hash's slot;
+/// cells that share a slot share its run (a gather tests every photon's distance anyway).
+struct PhotonGrid {
+    cell: f32,
+    /// Slots: a power of two, about one per photon.
+    mask: u32,
+    /// Run of slot s: `order[starts[s]..starts[s + 1]]`.
+    starts: Vec<u32>,
+    /// Photon indices sorted by slot, each slot's in photon order.
+    order: Vec<u32>,
+}
+
+impl PhotonGrid {
+    fn build(photons: &[Photon], cell: f32) -> PhotonGrid {
+        let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
+        let slots = photons.len().next_power_of_two().max(1);
+        let mask = (slots - 1) as u32;
+        let mut grid = PhotonGrid { cell, mask, starts: vec![0; slots + 1], order: vec![0; photons.len()] };
+        let keys: Vec<u32> = photons.iter().map(|p| grid.slot(grid.cell_of(p.p))).collect();
+        // Count, exclusive prefix sum, scatter (stable: photon order within each slot).
+        for &s in &keys {
+            grid.starts[s as usize + 1] += 1;
+        }
+        for s in 0..slots {
+            grid.starts[s + 1] += grid.starts[s];
+        }
+        let mut next = grid.starts.clone();
+        for (i, &s) in keys.iter().enumerate() {
+            grid.order[next[s as usize] as usize] = i as u32;
+            next[s as usize] += 1;
+        }
+        grid
+    }
+
+    fn cell_of(&self, p: Vec3) -> [i32; 3] {
+        let c = (p / self.cell).floor();
+        // Far outside any scene's float range a cell index saturates: still a valid cell.
+        [c.x as i32, c.y as i32, c.z as i32]
+    }
+
+    /// The slot of cell `c` (Teschner et al. 2003's spatial hash).
+    fn slot(&self, c: [i32; 3]) -> u32 {
+        let h = (c[0] as u32).wrapping_mul(73_856_093)
+            ^ (c[1] as u32).wrapping_mul(19_349_663)
+            ^ (c[2] as u32).wrapping_mul(83_492_791);
+        h & self.mask
+    }
+
+    /// Φ and M at visible point `vp` within `radius` (the module's step 4).
+    fn gather(&self, photons: &[Photon], vp: &VisiblePoint, radius: f32) -> (Vec3, u32) {
+        let (mut phi, mut m) = (Vec3::ZERO, 0u32);
+        if photons.is_empty() || radius <= 0.0 {
+            return (phi, m);
+        }
+        let lo = self.cell_of(vp.si.p - Vec3::splat(radius));
+        let hi = self.cell_of(vp.si.p + Vec3::splat(radius));
+        let r2 = radius * radius;
+        let ng = vp.si.n_geometric;
+        // The slots of the cells the sphere overlaps, each once (cells may share a slot);
+        // a range with more cells than there are slots reads every slot.
+        let cells: i64 = (0..3).map(|a| (hi[a] as i64 - lo[a] as i64 + 1).max(1)).product();
+        let slots: Vec<u32> = if cells > self.mask as i64 {
+            (0..=self.mask).collect()
+        } else {
+            let mut slots = Vec::with_capacity(cells as usize);
+            for cz in lo[2]..=hi[2] {
+                for cy in lo[1]..=hi[1] {
+                    for cx in lo[0]..=hi[0] {
+                        slots.push(self.slot([cx, cy, cz]));
+                    }
+                }
+            }
+            slots.sort_unstable();
+            slots.dedup();
+            slots
+        };
+        for s in slots {
+            let run = self.starts[s as usize] as usize..self.starts[s as usize + 1] as usize;
+            for &i in &self.order[run] {
+                let photon = &photons[i as usize];
+                if (photon.p - vp.si.p).length_squared() > r2 || photon.n.dot(ng) < NORMAL_AGREEMENT {
+                    continue;
+                }
+                let wi = vp.si.frame.to_local(photon.wi);
+                if !sides_agree(&vp.si, photon.wi, wi) {
+                    continue;
+                }
+                let cos_geometric = photon.wi.dot(ng).abs();
+                if cos_geometric <= 0.0 {
+                    continue;
+                }
+                let f = vp.bsdf.eval(vp.si.wo, wi);
+                phi += photon.beta * f * (wi.z.abs() / cos_geometric);
+                m += 1;
+            }
+        }
+        (phi, m)
+    }
+}
+
+impl std::ops::AddAssign for SppmStats {
+    fn add_assign(&mut self, o: SppmStats) {
+        self.passes += o.passes;
+        self.stored_photons += o.stored_photons;
+        self.dropped_photons += o.dropped_photons;
+        self.photon_rays += o.photon_rays;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn photon_at(p: Vec3) -> Photon {
+        Photon { p, wi: Vec3::Z, beta: Vec3::ONE, n: Vec3::Z }
+    }
+
+    #[test]
+    fn the_grid_holds_every_photon_once_in_photon_order_within_a_slot() {
+        let photons: Vec<Photon> = (0..1000)
+            .map(|i| {
+                let t = i as f32 * 0.618_034;
+                photon_at(Vec3::new(t.fract() * 4.0 - 2.0, (t * 7.0).fract(), (t * 13.0).fract() * 0.5))
+            })
+            .collect();
+        let grid = PhotonGrid::build(&photons, 0.1);
+        let mut all = grid.order.clone();
+        all.sort_unstable();
+        assert_eq!(all, (0..1000).collect::<Vec<u32>>());
+        for s in 0..grid.starts.len() - 1 {
+            let run = &grid.order[grid.starts[s] as usize..grid.starts[s + 1] as usize];
+            assert!(run.windows(2).all(|w| w[0] < w[1]), "slot {s} out of order");
+            for &i in run {
+                assert_eq!(grid.slot(grid.cell_of(photons[i as usize].p)), s as u32);
+            }
+        }
+    }
+}

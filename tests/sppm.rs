@@ -1,0 +1,320 @@
+//! Stochastic progressive photon mapping (issue 44) against the path tracer and analytic
+//! answers, on the CPU backend (the GPU backend has no photon-mapping kernel yet and
+//! refuses `--integrator sppm`; tests/session.rs: `auto` renders it on the CPU).
+//!
+//! SPPM is biased: its radius blurs the photons' light, a bias that shrinks with the
+//! passes. Each test states the bound it holds it to and why.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use pathlight::cpu::CpuBackend;
+use pathlight::film::Film;
+use pathlight::integrator::Integrator;
+use pathlight::scene::FlatScene;
+use pathlight::RenderSettings;
+
+fn settings(integrator: Integrator, size: u32, spp: u32, seed: u32) -> RenderSettings {
+    RenderSettings { integrator, width: size, height: size, spp, seed, ..RenderSettings::default() }
+}
+
+fn render(scene: &FlatScene, settings: &RenderSettings) -> Film {
+    common::render(&mut CpuBackend::new(scene, settings), settings.spp)
+}
+
+fn gltf_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "gltf" || e == "glb"))
+        .collect();
+    files.sort();
+    files
+}
+
+/// relMSE of `film` against `reference`, the reference's own variance taken out (so that a
+/// reference of finite samples does not set a floor), averaged over pixels and channels.
+fn relmse_against(film: &Film, reference: &Film) -> f64 {
+    let var = reference.variance_of_mean();
+    let mut sum = 0.0;
+    for ((a, b), v) in film.pixels.iter().zip(&reference.pixels).zip(&var) {
+        for c in 0..3 {
+            let (a, b) = (a.mean[c] as f64, b.mean[c] as f64);
+            sum += ((a - b).powi(2) - v[c] as f64) / (b * b + 1e-2);
+        }
+    }
+    sum / (film.pixels.len() * 3) as f64
+}
+
+/// The image's mean over pixels and channels and its standard error (the channels' errors
+/// combined as independent: conservative enough for a bound of several of them).
+fn mean_and_error(film: &Film) -> (f64, f64) {
+    let m = common::image_mean_and_standard_error(film);
+    let mean = m.iter().map(|(m, _)| m).sum::<f64>() / 3.0;
+    let se = (m.iter().map(|(_, s)| s * s).sum::<f64>()).sqrt() / 3.0;
+    (mean, se)
+}
+
+/// The bias bound of a 256-pass SPPM image mean at 24² against the path tracer's: the
+/// blur of a radius that started at 3 pixel footprints and has shrunk to about one moves
+/// light across the edges of the small images. The largest offset measured over the
+/// bundled scenes when this was written was 1.2% (cornell-tiny-light: a small light's
+/// sharp shadow edges, blurred).
+const IMAGE_MEAN_BIAS_24PX_256_PASSES: f64 = 0.02;
+
+/// SPPM's image mean within [`IMAGE_MEAN_BIAS_24PX_256_PASSES`] of the path tracer's, plus
+/// 5 standard errors of their difference (noise: a false alarm has probability 6e-7 per
+/// scene), on every bundled scene.
+#[test]
+fn sppm_equals_the_path_tracer_within_its_bias_on_every_bundled_scene() {
+    let size = 24;
+    let mut files = gltf_files(&common::root().join("scenes"));
+    files.extend(gltf_files(&common::root().join("scenes/hard")));
+    // 11 scenes in scenes/ and 24 in scenes/hard/ when this was written.
+    assert!(files.len() >= 30, "found only {} scenes", files.len());
+    let mut failures = Vec::new();
+    for file in files {
+        let name = file.file_stem().unwrap().to_string_lossy().into_owned();
+        let scene = common::flat_scene(&file, size, size);
+        let reference = render(&scene, &settings(Integrator::Path, size, 1024, 12));
+        let sppm = render(&scene, &settings(Integrator::Sppm, size, 256, 11));
+        let ((a, sa), (b, sb)) = (mean_and_error(&sppm), mean_and_error(&reference));
+        let bound = IMAGE_MEAN_BIAS_24PX_256_PASSES * b.abs() + 5.0 * (sa * sa + sb * sb).sqrt();
+        eprintln!("{name:30} sppm {a:.5} ± {sa:.5}, path {b:.5} ± {sb:.5}, bound {bound:.5}");
+        if sppm.total_rejected() != 0 {
+            failures.push(format!("{name}: {} non-finite passes", sppm.total_rejected()));
+        }
+        if (a - b).abs() > bound {
+            failures.push(format!("{name}: sppm {a:.5} ± {sa:.5}, path {b:.5} ± {sb:.5}, bound {bound:.5}"));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "SPPM differs from the path tracer beyond its bias:\n{}",
+        failures.join("\n")
+    );
+}
+
+/// SPPM's error against a converged path-traced reference, measured at 32, 128 and 512
+/// passes: the least-squares slope of log relMSE over log passes. The noise alone falls as
+/// passes⁻¹ and the bias as the radius² ∝ passes^(α−1) = passes^(−1/3) (Knaus & Zwicker
+/// 2011), so the slope lies between −1 and −1/3 while both matter; −0.3 leaves a margin
+/// for the reference's own noise (taken out on average, `relmse_against`). Below about 32
+/// passes the error of a 32² image hardly falls: the blur of the initial radius (3 pixel
+/// footprints, a tenth of the image) dominates it, and shrinks slowly.
+fn converges(file: &str) {
+    let size = 32;
+    let scene = common::flat_scene(&common::scene(file), size, size);
+    let reference = render(&scene, &settings(Integrator::Path, size, 4096, 5));
+    let mut points = Vec::new();
+    for passes in [32u32, 128, 512] {
+        let film = render(&scene, &settings(Integrator::Sppm, size, passes, 6));
+        let e = relmse_against(&film, &reference);
+        let ((a, _), (b, _)) = (mean_and_error(&film), mean_and_error(&reference));
+        eprintln!("{file}: {passes} passes: relMSE {e:.5}, image mean {a:.5} (reference {b:.5})");
+        assert!(e > 0.0, "{file}: relMSE {e} at {passes} passes is below the reference's own noise");
+        points.push(((passes as f64).ln(), e.ln()));
+    }
+    let n = points.len() as f64;
+    let (mx, my) = (points.iter().map(|p| p.0).sum::<f64>() / n, points.iter().map(|p| p.1).sum::<f64>() / n);
+    let slope = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
+        / points.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>();
+    eprintln!("{file}: log-log slope {slope:.3}");
+    assert!(slope < -0.3, "{file}: SPPM's error falls with slope {slope:.3} in passes, not below −0.3");
+}
+
+#[test]
+fn sppm_converges_on_the_cornell_box() {
+    converges("cornell-box.gltf");
+}
+
+#[test]
+fn sppm_converges_on_the_mirror_and_glass_cornell_box() {
+    converges("cornell-spheres.gltf");
+}
+
+/// The mirror-and-glass Cornell box with its ceiling light replaced by a spot light just
+/// under the ceiling, its cone (10° half-angle) on the glass sphere: most of its light
+/// reaches the room through the glass, a caustic from a point, which no path from the
+/// camera can find.
+fn spot_lit_glass_sphere() -> FlatScene {
+    let (mut scene, _) = pathlight::scene::load(&common::scene("cornell-spheres.gltf")).unwrap();
+    let mut lamps = 0;
+    for m in scene.materials.iter_mut().filter(|m| m.emission.max_element() > 0.0) {
+        m.emission = glam::Vec3::ZERO;
+        lamps += 1;
+    }
+    assert_eq!(lamps, 1, "the scene has one lamp material");
+    // The glass sphere's centre: the middle of its triangles' bounds.
+    let (mut lo, mut hi) = (glam::DVec3::splat(f64::MAX), glam::DVec3::splat(f64::MIN));
+    for (tri, &m) in scene.positions.chunks_exact(3).zip(&scene.triangle_materials) {
+        if scene.materials[m as usize].transmission > 0.0 {
+            for p in tri {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+        }
+    }
+    assert!(lo.x < hi.x, "the scene has a glass sphere");
+    let glass = (lo + hi) * 0.5;
+    let (room_lo, room_hi) = scene.bounds().unwrap();
+    let position = glam::DVec3::new(glass.x, room_hi.y - 0.05 * (room_hi.y - room_lo.y), glass.z);
+    scene.lights.push(pathlight::scene::PunctualLight {
+        name: "spot".into(),
+        kind: pathlight::scene::PunctualKind::Spot {
+            inner_cone_angle: 8f32.to_radians(),
+            outer_cone_angle: 10f32.to_radians(),
+        },
+        intensity: glam::Vec3::splat(20.0),
+        position,
+        direction: (glass - position).normalize(),
+    });
+    FlatScene::build(&scene, &pathlight::scene::ViewSettings { camera: None, aspect: 1.0 }).unwrap()
+}
+
+/// A spot light on a glass sphere: every bit of its light reaches the room through the
+/// glass, a caustic from a point, and the path tracer renders none of it (its image is
+/// black, exactly), while SPPM renders it: its image mean is at least 80% of bidirectional
+/// path tracing's (which reaches the caustic by joining light subpaths to the camera).
+/// Their full agreement is the next test, which fails today.
+#[test]
+fn a_caustic_from_a_spot_light_the_path_tracer_cannot_render_is_rendered_by_sppm() {
+    let size = 24;
+    let scene = spot_lit_glass_sphere();
+    let path = render(&scene, &settings(Integrator::Path, size, 256, 1));
+    let sppm = render(&scene, &settings(Integrator::Sppm, size, 256, 2));
+    let bdpt = render(&scene, &settings(Integrator::Bdpt, size, 64, 3));
+    let ((a, sa), (p, _), (b, _)) = (mean_and_error(&sppm), mean_and_error(&path), mean_and_error(&bdpt));
+    eprintln!("spot-lit glass sphere: sppm {a:.5} ± {sa:.5}, bdpt {b:.5}, path {p:.5}");
+    assert_eq!(p, 0.0, "the path tracer found light from a point through glass");
+    assert!(b > 0.1, "bdpt renders no caustic ({b}): the scene does not test anything");
+    assert!(a > 0.8 * b, "sppm renders {a:.5} of bdpt's {b:.5} caustic");
+}
+
+/// SPPM and bidirectional path tracing agree on the spot-lit glass sphere's caustic within
+/// [`IMAGE_MEAN_BIAS_24PX_256_PASSES`] plus 5 standard errors. They do not, today: SPPM
+/// gives 0.269 ± 0.004 and BDPT 0.2455 ± 0.0005 (9.7% apart), unchanged by the radius, the
+/// passes, 8× the photons or 4× the pixels, so it is no blur bias. Both integrators start
+/// their light paths with the same code and walk them with the same code, and both agree
+/// with the path tracer on every bundled scene (area lights, spot lights on diffuse
+/// surfaces, area-lit glass caustics): the disagreement is specific to light from a delta
+/// light through delta surfaces, which only BDPT's t = 1 strategy and SPPM's photons reach,
+/// and which nothing else here renders to break the tie. Issue 44 records it.
+#[test]
+#[ignore = "issue 44: SPPM and BDPT disagree by 9.7% on a spot light's caustic through glass; cause not found yet"]
+fn sppm_and_bdpt_agree_on_a_spot_lights_caustic() {
+    let size = 24;
+    let scene = spot_lit_glass_sphere();
+    let sppm = render(&scene, &settings(Integrator::Sppm, size, 256, 2));
+    // Independent BDPT renders: its t = 1 splats make one render's pixels correlated, so
+    // the spread of independent image means is its honest error.
+    let means: Vec<f64> = (0..8)
+        .map(|seed| mean_and_error(&render(&scene, &settings(Integrator::Bdpt, size, 64, 10 + seed))).0)
+        .collect();
+    let b = means.iter().sum::<f64>() / means.len() as f64;
+    let sb = (means.iter().map(|m| (m - b).powi(2)).sum::<f64>() / (means.len() * (means.len() - 1)) as f64)
+        .sqrt();
+    let (a, sa) = mean_and_error(&sppm);
+    let bound = IMAGE_MEAN_BIAS_24PX_256_PASSES * b + 5.0 * (sa * sa + sb * sb).sqrt();
+    assert!((a - b).abs() <= bound, "sppm {a:.5} ± {sa:.5} against bdpt {b:.5} ± {sb:.5}: bound {bound:.5}");
+}
+
+/// A caustic seen through a glass pane (scenes/hard/cornell-spheres-behind-glass.gltf: the
+/// mirror-and-glass box behind a window): specular–diffuse–specular light, which SPPM's
+/// visible points behind the pane gather. At 256 passes of a 32² image its image mean
+/// lies within [`IMAGE_MEAN_BIAS_24PX_256_PASSES`] plus 5 standard errors of a 4096-sample
+/// path-traced reference (the path tracer finds these paths only by chance, but it does
+/// find them: unbiased, only noisy), and its relMSE below 0.02 (measured 0.007 when
+/// written; the path tracer's own at equal time is the benchmark's business).
+#[test]
+fn a_caustic_seen_through_a_glass_pane_is_rendered_by_sppm() {
+    let size = 32;
+    let scene = common::flat_scene(&common::scene("hard/cornell-spheres-behind-glass.gltf"), size, size);
+    let reference = render(&scene, &settings(Integrator::Path, size, 4096, 3));
+    let sppm = render(&scene, &settings(Integrator::Sppm, size, 256, 4));
+    let ((a, sa), (b, sb)) = (mean_and_error(&sppm), mean_and_error(&reference));
+    let e = relmse_against(&sppm, &reference);
+    eprintln!("behind glass: sppm {a:.5} ± {sa:.5}, path {b:.5} ± {sb:.5}, relMSE {e:.5}");
+    let bound = IMAGE_MEAN_BIAS_24PX_256_PASSES * b + 5.0 * (sa * sa + sb * sb).sqrt();
+    assert!((a - b).abs() <= bound, "sppm {a:.5} ± {sa:.5}, path {b:.5} ± {sb:.5}: bound {bound:.5}");
+    assert!(e < 0.02, "relMSE {e:.5} at 256 passes");
+}
+
+/// The analytic furnace (tests/furnace.rs): inside a closed Lambertian sphere of albedo ρ
+/// emitting 1 every pixel is exactly 1 / (1 − ρ). Photons spread uniformly over a sphere
+/// are gathered without the blur bias a non-uniform density has, so the bound is 1% (the
+/// radius update's own small bias: the photon count M that shrinks the radius is
+/// correlated with the flux it keeps) plus 5 standard errors.
+fn furnace(albedo: f64, file: &str) {
+    let size = 32;
+    let scene = common::flat_scene(&common::scene(file), size, size);
+    let film = render(&scene, &settings(Integrator::Sppm, size, 256, 9));
+    let exact = 1.0 / (1.0 - albedo);
+    let (mean, se) = mean_and_error(&film);
+    eprintln!("sppm furnace ρ = {albedo}: {mean:.5} ± {se:.5} (exact {exact})");
+    assert_eq!(film.total_rejected(), 0);
+    assert!(
+        (mean - exact).abs() <= 0.01 * exact + 5.0 * se,
+        "furnace ρ = {albedo}: {mean:.5} ± {se:.5}, exact {exact}"
+    );
+    assert!(se < 0.01 * exact, "standard error {se} is too large to test anything");
+}
+
+#[test]
+fn sppm_furnace_albedo_0_5() {
+    furnace(0.5, "furnace-0.5.gltf");
+}
+
+#[test]
+fn sppm_furnace_albedo_0_9() {
+    furnace(0.9, "furnace-0.9.gltf");
+}
+
+/// The same seed gives the same image on any number of threads: the photons are stored
+/// and gathered in photon order.
+#[test]
+fn a_seed_gives_the_same_image_on_one_thread_and_on_several() {
+    let size = 24;
+    let scene = common::flat_scene(&common::scene("cornell-spheres.gltf"), size, size);
+    let on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| render(&scene, &settings(Integrator::Sppm, size, 8, 3)))
+    };
+    let (one, three) = (on(1), on(3));
+    assert!(one.pixels == three.pixels, "the images differ between 1 and 3 threads");
+}
+
+/// Photon-mapping options are checked before any work, with messages naming them.
+#[test]
+fn bad_photon_mapping_options_are_clear_errors() {
+    let sppm = settings(Integrator::Sppm, 8, 4, 0);
+    let cases: Vec<(RenderSettings, &str)> = vec![
+        (RenderSettings { photons: Some(0), ..sppm.clone() }, "--photons must be between 1"),
+        (RenderSettings { photons: Some(u32::MAX), ..sppm.clone() }, "--photons must be between 1"),
+        (RenderSettings { sppm_radius: Some(0.0), ..sppm.clone() }, "--sppm-radius"),
+        (RenderSettings { sppm_radius: Some(f32::NAN), ..sppm.clone() }, "--sppm-radius"),
+        (
+            RenderSettings { max_depth: Some(3), ..sppm.clone() },
+            "--max-depth is not supported by --integrator sppm",
+        ),
+        (
+            RenderSettings { photons: Some(100), ..settings(Integrator::Path, 8, 4, 0) },
+            "options of --integrator sppm, not of --integrator path",
+        ),
+    ];
+    for (s, expected) in cases {
+        let e = s.validate().expect_err(expected).to_string();
+        assert!(e.contains(expected), "{e:?} lacks {expected:?}");
+    }
+    let options = pathlight::session::SessionOptions {
+        integrator: Integrator::Sppm,
+        spp: 8,
+        samples: Some(2..4),
+        width: Some(8),
+        height: Some(8),
+        ..pathlight::session::SessionOptions::new(common::scene("cornell-box.gltf"))
+    };
+    let e = pathlight::session::Session::open(&options).err().expect("a part of an sppm render").to_string();
+    assert!(e.contains("--integrator sppm renders whole images"), "{e}");
+}
