@@ -76,6 +76,14 @@ pub struct GpuBackend {
     samples_since_fold: u64,
     /// Measured seconds per pixel-sample, steering submit sizes.
     seconds_per_sample: Option<f64>,
+    /// An upper bound of the same, for [`Self::software_gpu_sample_cap`]: each submit's
+    /// time from its submission to the host seeing it done, over its work. A submit runs
+    /// within that span whatever else was queued or however late the host woke, so this
+    /// never under-states the rate (the estimate above, timed from the previous submit's
+    /// end as the host saw it, can: a host woken late, as on a busy machine, times the next
+    /// submit short, and an 8 × 8 image then lost a third of its samples to lavapipe's
+    /// loop limit).
+    seconds_per_sample_bound: Option<f64>,
     /// Wall time of uploading the scene.
     pub upload_seconds: f64,
     /// The light tracer's image of one sample index (`caustics` in shaders/bindings.wgsl;
@@ -342,6 +350,7 @@ impl GpuBackend {
             rays_folded: 0,
             samples_since_fold: 0,
             seconds_per_sample: None,
+            seconds_per_sample_bound: None,
             upload_seconds: start.elapsed().as_secs_f64(),
             caustics,
             camera_sees_only_delta: (caustics_kernel.is_some() || bdpt)
@@ -490,7 +499,7 @@ impl GpuBackend {
     /// another, `rate` seconds per pixel-sample spread over the host's threads, so it runs
     /// about spp · rate · threads · lanes seconds. Unbounded on a hardware GPU.
     fn software_gpu_sample_cap(&self) -> u32 {
-        match self.seconds_per_sample {
+        match self.seconds_per_sample_bound {
             Some(rate) if !self.ctx.is_hardware() => {
                 let threads = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
                 let per_sample = rate * threads * SOFTWARE_GPU_LANES;
@@ -783,6 +792,11 @@ impl Backend for GpuBackend {
                     self.seconds_per_sample = Some(match self.seconds_per_sample {
                         Some(old) => 0.5 * old + 0.5 * rate,
                         None => rate,
+                    });
+                    let bound = now.duration_since(submitted).as_secs_f64() / work;
+                    self.seconds_per_sample_bound = Some(match self.seconds_per_sample_bound {
+                        Some(old) => 0.5 * old + 0.5 * bound,
+                        None => bound,
                     });
                     last_done = Some(now);
                 }
