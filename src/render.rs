@@ -46,10 +46,18 @@ pub struct RenderSettings {
     /// Will per-pixel sample counts be set (`Backend::set_sample_budgets`, `--adaptive`)? The
     /// GPU backend then holds a buffer of 4 bytes per pixel for them.
     pub adaptive: bool,
-    /// Photon mapping only: photons per pass (`--photons`); `None`: one per pixel.
+    /// Photon mapping: photons per pass for `sppm`, photons of the global map for `photon`
+    /// (`--photons`); `None`: one per pixel (`sppm`), `integrator::photon::default_map_photons`
+    /// (`photon`).
     pub photons: Option<u32>,
+    /// `photon` only: photons traced for the caustic map (`--caustic-photons`); `None`:
+    /// `integrator::photon::default_map_photons`.
+    pub caustic_photons: Option<u32>,
+    /// `photon` only: the photons a global-map estimate averages over (`--gather-photons`);
+    /// `None`: `integrator::photon::DEFAULT_GATHER_PHOTONS`.
+    pub gather_photons: Option<u32>,
     /// Photon mapping only: the initial gather radius in pixel footprints (`--sppm-radius`);
-    /// `None`: `integrator::sppm::DEFAULT_SPPM_RADIUS_PIXELS`.
+    /// `None`: `integrator::sppm::default_sppm_radius_pixels`.
     pub sppm_radius: Option<f32>,
 }
 
@@ -71,6 +79,8 @@ impl Default for RenderSettings {
             aovs: false,
             adaptive: false,
             photons: None,
+            caustic_photons: None,
+            gather_photons: None,
             sppm_radius: None,
         }
     }
@@ -168,17 +178,41 @@ impl RenderSettings {
                 )));
             }
         }
-        if self.integrator != Integrator::Sppm && (self.photons.is_some() || self.sppm_radius.is_some()) {
+        let photon_mapping = matches!(self.integrator, Integrator::Sppm | Integrator::Photon);
+        if !photon_mapping && self.photons.is_some() {
             return Err(crate::Error::Settings(format!(
-                "--photons and --sppm-radius are options of --integrator sppm, not of --integrator {}",
+                "--photons is an option of --integrator sppm and photon, not of --integrator {}",
                 self.integrator
             )));
         }
-        if let Some(n) = self.photons {
-            if !(1..=crate::integrator::sppm::MAX_PHOTONS_PER_PASS).contains(&n) {
+        if self.integrator != Integrator::Sppm && self.sppm_radius.is_some() {
+            return Err(crate::Error::Settings(format!(
+                "--sppm-radius is an option of --integrator sppm, not of --integrator {}",
+                self.integrator
+            )));
+        }
+        if self.integrator != Integrator::Photon
+            && (self.caustic_photons.is_some() || self.gather_photons.is_some())
+        {
+            return Err(crate::Error::Settings(format!(
+                "--caustic-photons and --gather-photons are options of --integrator photon, not of --integrator {}",
+                self.integrator
+            )));
+        }
+        for (name, n) in [("--photons", self.photons), ("--caustic-photons", self.caustic_photons)] {
+            if let Some(n) = n {
+                if !(1..=crate::integrator::sppm::MAX_PHOTONS_PER_PASS).contains(&n) {
+                    return Err(crate::Error::Settings(format!(
+                        "{name} must be between 1 and {}, not {n}",
+                        crate::integrator::sppm::MAX_PHOTONS_PER_PASS
+                    )));
+                }
+            }
+        }
+        if let Some(k) = self.gather_photons {
+            if !(1..=4096).contains(&k) {
                 return Err(crate::Error::Settings(format!(
-                    "--photons must be between 1 and {} per pass, not {n}",
-                    crate::integrator::sppm::MAX_PHOTONS_PER_PASS
+                    "--gather-photons is how many photons a global-map estimate averages: 1 to 4096, not {k}"
                 )));
             }
         }
@@ -189,12 +223,12 @@ impl RenderSettings {
                 )));
             }
         }
-        if self.integrator == Integrator::Sppm && self.max_depth.is_some() {
-            return Err(crate::Error::Settings(
-                "--max-depth is not supported by --integrator sppm yet: its camera paths and photons \
-                 split a path's bounces between them"
-                    .into(),
-            ));
+        if photon_mapping && self.max_depth.is_some() {
+            return Err(crate::Error::Settings(format!(
+                "--max-depth is not supported by --integrator {} yet: its camera paths and photons \
+                 split a path's bounces between them",
+                self.integrator
+            )));
         }
         if self.adaptive && self.integrator != Integrator::Path {
             return Err(crate::Error::Settings(format!(

@@ -99,11 +99,21 @@ pub struct SceneArgs {
     /// densities).
     #[arg(long, value_name = "S,T", value_parser = parse_strategy)]
     pub bdpt_strategy: Option<(u32, u32)>,
-    /// With --integrator sppm: photons traced per pass (default: one per pixel).
+    /// With --integrator sppm: photons traced per pass (default: one per pixel); with
+    /// --integrator photon: photons traced for the global map (default: four per pixel, at
+    /// least 262,144).
     #[arg(long, value_name = "N")]
     pub photons: Option<u32>,
+    /// With --integrator photon: photons traced for the caustic map, of which its caustic
+    /// landings are kept (default: four per pixel, at least 262,144).
+    #[arg(long, value_name = "N")]
+    pub caustic_photons: Option<u32>,
+    /// With --integrator photon: the photons a global-map estimate averages over, which
+    /// sets its radius (default 32).
+    #[arg(long, value_name = "K")]
+    pub gather_photons: Option<u32>,
     /// With --integrator sppm: the initial photon gather radius, in pixel footprints at
-    /// each pixel's first visible point (default 3).
+    /// each pixel's first visible point (default: a tenth of the image height, at least 3).
     #[arg(long, value_name = "PIXELS")]
     pub sppm_radius: Option<f32>,
     /// Camera index in the file (default: the first camera, or one framing the scene).
@@ -170,6 +180,8 @@ impl SceneArgs {
             record_strategies: false,
             photons: self.photons,
             sppm_radius: self.sppm_radius,
+            caustic_photons: self.caustic_photons,
+            gather_photons: self.gather_photons,
             sampler: match self.sampler {
                 SamplerChoice::Sobol => pathlight::sampling::SamplerKind::Sobol,
                 SamplerChoice::Independent => pathlight::sampling::SamplerKind::Independent,

@@ -260,7 +260,12 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
             pathlight::integrator::bdpt::BDPT_MAX_VERTICES
         );
     }
-    if let Some(sppm) = session.sppm_stats() {
+    if let Some(sppm) = session.sppm_stats().filter(|s| s.passes == 0) {
+        eprintln!(
+            "photon: {} photons stored in the global and caustic maps; the variance channels and the predicted error measure its noise given the maps, not their bias",
+            sppm.stored_photons
+        );
+    } else if let Some(sppm) = session.sppm_stats() {
         let per_pass = sppm.stored_photons as f64 / sppm.passes.max(1) as f64;
         eprintln!(
             "sppm: {} passes, {per_pass:.0} photons stored per pass; the variance channels and the predicted error measure its noise, not the bias of its gather radius",

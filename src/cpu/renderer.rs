@@ -7,6 +7,7 @@ use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, Str
 use crate::integrator::delta_view::camera_sees_only_delta_surfaces;
 use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
+use crate::integrator::photon::{photon_map_sample, PhotonMapSettings, PhotonMaps, DEFAULT_GATHER_PHOTONS};
 use crate::integrator::sppm::{sppm_film, sppm_pass, SppmContext, SppmPixel, SppmSettings, SppmStats};
 use crate::integrator::{path::radiance, Integrator, IntegratorSettings};
 use crate::render::{Backend, RenderSettings};
@@ -67,6 +68,9 @@ pub struct CpuBackend<'a> {
     /// Stochastic progressive photon mapping: every pixel's state, and the passes taken
     /// (`film` then holds the per-pass estimates, `crate::integrator::sppm`).
     sppm: Option<SppmRender>,
+    /// The photon-map integrator's maps, traced before its first sample and kept (they do
+    /// not depend on the camera).
+    photon_maps: Option<PhotonMaps>,
 }
 
 /// A photon-mapping render's progressive state.
@@ -120,6 +124,7 @@ impl<'a> CpuBackend<'a> {
             strategies: settings.record_strategies.then(|| (StrategyImages::new(), 0)),
             budgets: None,
             sppm: (settings.integrator == Integrator::Sppm).then(|| SppmRender::new(settings)),
+            photon_maps: None,
         }
     }
 
@@ -166,8 +171,13 @@ impl CpuBackend<'_> {
     fn sppm_settings(&self) -> SppmSettings {
         let s = &self.settings;
         SppmSettings {
-            photons: s.photons.unwrap_or(s.width * s.height),
-            radius_pixels: s.sppm_radius.unwrap_or(crate::integrator::sppm::DEFAULT_SPPM_RADIUS_PIXELS),
+            photons: s
+                .photons
+                .unwrap_or(s.width * s.height)
+                .min(crate::integrator::sppm::MAX_PHOTONS_PER_PASS),
+            radius_pixels: s
+                .sppm_radius
+                .unwrap_or_else(|| crate::integrator::sppm::default_sppm_radius_pixels(s.height)),
         }
     }
 
@@ -186,26 +196,85 @@ impl CpuBackend<'_> {
                 state.passes
             )));
         }
-        let s = &self.settings;
         let ctx = SppmContext {
             scene: &self.scene,
             camera: &self.camera,
             settings: &integrator,
             sppm,
-            width: s.width,
-            height: s.height,
-            seed: s.seed,
-            sampler: s.sampler,
-            passes: s.spp,
+            width: self.settings.width,
+            height: self.settings.height,
+            seed: self.settings.seed,
+            sampler: self.settings.sampler,
+            passes: self.settings.spp,
         };
         sppm_pass(&ctx, k, &mut state.pixels, &mut self.film, &mut self.rays, &mut state.stats);
         state.passes += 1;
         Ok(())
     }
 
-    /// What the photon passes counted (`None` for other integrators).
+    /// What the photon passes, or the photon maps, counted (`None` for other integrators).
     pub fn sppm_stats(&self) -> Option<SppmStats> {
-        self.sppm.as_ref().map(|s| s.stats)
+        self.sppm.as_ref().map(|s| s.stats).or_else(|| self.photon_maps.as_ref().map(|m| m.stats))
+    }
+
+    /// The context photon mapping's functions read.
+    fn photon_context<'b>(
+        scene: &'b FlatScene,
+        camera: &'b Camera,
+        s: &RenderSettings,
+        integrator: &'b IntegratorSettings,
+        sppm: SppmSettings,
+    ) -> SppmContext<'b> {
+        SppmContext {
+            scene,
+            camera,
+            settings: integrator,
+            sppm,
+            width: s.width,
+            height: s.height,
+            seed: s.seed,
+            sampler: s.sampler,
+            passes: s.spp,
+        }
+    }
+
+    /// The photon-map integrator's samples `samples` of rows `rows`, its maps traced first
+    /// if they are not yet.
+    fn render_photon_band(&mut self, samples: std::ops::Range<u32>, rows: std::ops::Range<u32>) {
+        let integrator = self.integrator_settings();
+        let s = &self.settings;
+        let default = crate::integrator::photon::default_map_photons(s.width, s.height);
+        let map_settings = PhotonMapSettings {
+            photons: s.photons.unwrap_or(default),
+            caustic_photons: s.caustic_photons.unwrap_or(default),
+            gather_photons: s.gather_photons.unwrap_or(DEFAULT_GATHER_PHOTONS),
+        };
+        let sppm = self.sppm_settings();
+        if self.photon_maps.is_none() {
+            let ctx = Self::photon_context(&self.scene, &self.camera, &self.settings, &integrator, sppm);
+            let maps = PhotonMaps::build(&ctx, &map_settings);
+            self.photon_maps = Some(maps);
+        }
+        let maps = self.photon_maps.take().expect("built above");
+        {
+            let ctx = Self::photon_context(&self.scene, &self.camera, &self.settings, &integrator, sppm);
+            let w = self.settings.width as usize;
+            let band = rows.start as usize * w..rows.end.min(self.settings.height) as usize * w;
+            self.film.pixels[band.clone()]
+                .par_chunks_mut(w)
+                .zip(self.rays[band].par_chunks_mut(w))
+                .enumerate()
+                .for_each(|(i, (row, rays))| {
+                    let y = rows.start + i as u32;
+                    for (x, (pixel, rays)) in row.iter_mut().zip(rays).enumerate() {
+                        for k in samples.clone() {
+                            let l = photon_map_sample(&ctx, &maps, x as u32, y, k, rays);
+                            film_add_sample(pixel, l, replicate_of(k));
+                        }
+                    }
+                });
+        }
+        self.photon_maps = Some(maps);
     }
 
     /// The light tracer's paths for sample index `k`: one per pixel that takes it.
@@ -228,6 +297,9 @@ impl CpuBackend<'static> {
 impl CpuBackend<'_> {
     /// Adds samples `samples` to the rows `rows` of the film.
     fn render_band(&mut self, samples: std::ops::Range<u32>, rows: std::ops::Range<u32>) {
+        if self.settings.integrator == Integrator::Photon {
+            return self.render_photon_band(samples, rows);
+        }
         let integrator = self.integrator_settings();
         if self.settings.integrator == Integrator::Bdpt {
             for k in samples {
@@ -388,8 +460,8 @@ impl CpuBackend<'_> {
                             generate_camera_ray(camera, width, height, x as u32, y as u32, sampler.next_2d());
                         let l = match s.integrator {
                             Integrator::Path => radiance(scene, integrator, ray, cone, &mut sampler, rays),
-                            Integrator::Bdpt | Integrator::Sppm => {
-                                unreachable!("bidirectional and photon-mapping passes are rendered whole")
+                            Integrator::Bdpt | Integrator::Sppm | Integrator::Photon => {
+                                unreachable!("rendered by their own bands")
                             }
                         };
                         film_add_sample(pixel, l + light_traced, replicate_of(k));
@@ -478,7 +550,7 @@ impl Backend for CpuBackend<'_> {
     }
 
     fn rays_traced(&mut self) -> crate::Result<u64> {
-        let photon_rays = self.sppm.as_ref().map_or(0, |s| s.stats.photon_rays);
+        let photon_rays = self.sppm_stats().map_or(0, |s| s.photon_rays);
         Ok(self.rays.iter().sum::<u64>() + self.light_rays + photon_rays)
     }
 

@@ -149,7 +149,7 @@ pub(crate) struct Vertex {
     /// The density with which a subpath from the other end would have produced it.
     pdf_rev: f32,
     /// Scattered by a delta lobe.
-    delta: bool,
+    pub(crate) delta: bool,
 }
 
 impl Vertex {

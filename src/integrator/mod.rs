@@ -6,6 +6,7 @@
 //! | unidirectional path tracing with next-event estimation and MIS, its caustics optionally left to a light tracer | `path` | [`path`], [`light_tracing`] | `shaders/path.wgsl`, `shaders/light_tracing.wgsl` |
 //! | bidirectional path tracing, every strategy weighted by MIS | `bdpt` | [`bdpt`] | `shaders/bdpt.wgsl` |
 //! | stochastic progressive photon mapping (biased, consistent) | `sppm` | [`sppm`] | none yet: the GPU backend refuses it |
+//! | photon mapping: caustic and global maps, final gather (biased) | `photon` | [`photon`] | none yet: the GPU backend refuses it |
 //!
 //! What every integrator shares lives beside them, each with a WGSL twin of the same name:
 //! * [`interaction`]: the surface record built at every path vertex and the side test of a
@@ -32,6 +33,7 @@ pub mod light_tracing;
 pub mod mis;
 pub mod partition;
 pub mod path;
+pub mod photon;
 pub mod roulette;
 pub mod sppm;
 
@@ -59,11 +61,15 @@ pub enum Integrator {
     /// Stochastic progressive photon mapping (Hachisuka & Jensen 2009; [`sppm`]): biased,
     /// its bias shrinking with the passes; CPU only so far.
     Sppm,
+    /// Photon mapping with a caustic map, a global map and a final gather (Jensen 1996;
+    /// [`photon`]): biased, its maps fixed for the render; CPU only so far.
+    Photon,
 }
 
 impl Integrator {
     /// Every integrator, in the order `--integrator` lists them.
-    pub const ALL: [Integrator; 3] = [Integrator::Path, Integrator::Bdpt, Integrator::Sppm];
+    pub const ALL: [Integrator; 4] =
+        [Integrator::Path, Integrator::Bdpt, Integrator::Sppm, Integrator::Photon];
 
     /// The name `--integrator` takes and outputs record.
     pub fn name(self) -> &'static str {
@@ -71,6 +77,7 @@ impl Integrator {
             Integrator::Path => "path",
             Integrator::Bdpt => "bdpt",
             Integrator::Sppm => "sppm",
+            Integrator::Photon => "photon",
         }
     }
 
@@ -79,7 +86,7 @@ impl Integrator {
     pub fn has_gpu_kernel(self) -> bool {
         match self {
             Integrator::Path | Integrator::Bdpt => true,
-            Integrator::Sppm => false,
+            Integrator::Sppm | Integrator::Photon => false,
         }
     }
 
@@ -88,7 +95,7 @@ impl Integrator {
     pub fn is_unbiased(self) -> bool {
         match self {
             Integrator::Path | Integrator::Bdpt => true,
-            Integrator::Sppm => false,
+            Integrator::Sppm | Integrator::Photon => false,
         }
     }
 
@@ -100,6 +107,10 @@ impl Integrator {
             Integrator::Sppm => {
                 "the spread of each pixel's per-pass estimates (each at its pass's photon radius): noise only; \
                  the bias of the radius is not in it, nor in the predicted error"
+            }
+            Integrator::Photon => {
+                "the sample variance of each pixel's samples given the render's photon maps: noise only; \
+                 the maps' bias (their radii and their own noise) is not in it, nor in the predicted error"
             }
         }
     }

@@ -44,7 +44,7 @@
 //!
 //! **Initial radius.** `radius_pixels` pixel footprints at the pixel's first visible point
 //! (the camera ray cone's width at the distance travelled): scale-free, as a world-space
-//! radius is not.
+//! radius is not; by default a tenth of the image's height ([`default_sppm_radius_pixels`]).
 //!
 //! **Random numbers.** The camera path draws from its pixel's [`PathSampler`] for sample
 //! index k: pixel jitter (2-D), then per vertex [alpha], the light sample (2-D) and [alpha]
@@ -61,8 +61,9 @@ use super::mis::power_heuristic;
 use super::roulette::{survival_probability, MAX_BOUNCES_GUARD, RR_ANY_BOUNCE_DEPTH};
 use super::IntegratorSettings;
 use crate::bsdf::{BsdfSample, GltfBsdf};
+use crate::bvh::ClosestHit;
 use crate::film::{film_add_sample, Film};
-use crate::geometry::spawn_ray;
+use crate::geometry::{spawn_ray, Ray};
 use crate::light::{environment_lookup, sample_light, triangle_light_pdf, LightArrays};
 use crate::sampling::{replicate_of, PathSampler, Rng, SamplerKind};
 use crate::scene::camera::{camera_ray_cone, generate_camera_ray};
@@ -79,10 +80,20 @@ pub const SPPM_ALPHA: f32 = 2.0 / 3.0;
 /// the light tracer's paths have `LIGHT_PATH_STREAM` (u32::MAX).
 pub const PHOTON_STREAM: u32 = u32::MAX - 1;
 
-/// The initial radius in pixel footprints unless told otherwise (`--sppm-radius`): wide
-/// enough that a pass of one photon per pixel finds a few photons in most pixels of the
-/// bundled scenes, narrow enough that the first passes' blur stays within a few pixels.
+/// The least initial radius in pixel footprints unless told otherwise (`--sppm-radius`):
+/// wide enough that a pass of one photon per pixel finds a few photons in most pixels of
+/// the bundled scenes ([`default_sppm_radius_pixels`]).
 pub const DEFAULT_SPPM_RADIUS_PIXELS: f32 = 3.0;
+
+/// The initial radius in pixel footprints unless told otherwise: a tenth of the image's
+/// height, and at least [`DEFAULT_SPPM_RADIUS_PIXELS`]. With one photon per pixel a disk of
+/// R pixels holds about as many photons per pass at any resolution, so a radius that is a
+/// fixed share of the image keeps its blur, as a share of the image, the same, and lets a
+/// larger image average more photons. On the 128² Cornell box at 9 s, 12.8 pixels had 8×
+/// less error than 3 (noise, not bias, dominated both: `bench/RESULTS.md`).
+pub fn default_sppm_radius_pixels(height: u32) -> f32 {
+    (height as f32 / 10.0).max(DEFAULT_SPPM_RADIUS_PIXELS)
+}
 
 /// The most photons one pass may trace (`--photons`).
 pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 24;
@@ -166,20 +177,20 @@ pub struct SppmContext<'a> {
 
 /// A pixel's visible point for one pass.
 #[derive(Clone, Copy)]
-struct VisiblePoint {
-    si: SurfaceInteraction,
-    bsdf: GltfBsdf,
+pub(crate) struct VisiblePoint {
+    pub(crate) si: SurfaceInteraction,
+    pub(crate) bsdf: GltfBsdf,
     /// The camera path's throughput over the probability of the non-delta choice.
-    beta: Vec3,
+    pub(crate) beta: Vec3,
     /// The camera ray cone's width there: one pixel's footprint.
-    footprint: f32,
+    pub(crate) footprint: f32,
 }
 
 /// One pixel's camera path of one pass: the light that needs no photons, and where the
 /// photons are to be gathered.
-struct CameraPath {
-    direct: Vec3,
-    visible: Option<VisiblePoint>,
+pub(crate) struct CameraPath {
+    pub(crate) direct: Vec3,
+    pub(crate) visible: Option<VisiblePoint>,
 }
 
 /// Pass `k` of every pixel: adds its estimate to `film` (per-pass statistics, see the
@@ -200,7 +211,16 @@ pub fn sppm_pass(
         .flat_map_iter(|(y, rays)| {
             rays.iter_mut()
                 .enumerate()
-                .map(move |(x, rays)| camera_path(ctx, x as u32, y as u32, k, rays))
+                .map(move |(x, rays)| {
+                    let emission = |si: &SurfaceInteraction,
+                                    bs: &BsdfSample,
+                                    beta: Vec3,
+                                    sampler: &mut PathSampler,
+                                    rays: &mut u64| {
+                        bsdf_sampled_emission(ctx.scene, si, bs, beta, sampler, rays)
+                    };
+                    camera_path(ctx, x as u32, y as u32, k, rays, &emission)
+                })
                 .collect::<Vec<_>>()
         })
         .collect();
@@ -211,7 +231,7 @@ pub fn sppm_pass(
             pixel.radius = ctx.sppm.radius_pixels * footprint;
         }
     }
-    let (photons, photon_stats) = trace_photons(ctx, k);
+    let (photons, photon_stats) = trace_photons(ctx, k, ctx.sppm.photons, PhotonKind::Indirect);
     *stats += photon_stats;
     let mean_radius = {
         let (sum, n) = pixels
@@ -232,7 +252,7 @@ pub fn sppm_pass(
             let mut estimate = path.direct;
             pixel.direct += path.direct;
             if let Some(vp) = &path.visible {
-                let (phi, m) = grid.gather(&photons, vp, pixel.radius);
+                let (phi, m) = grid.gather(&photons, &vp.si, &vp.bsdf, pixel.radius);
                 let area = std::f32::consts::PI * pixel.radius * pixel.radius;
                 estimate += vp.beta * phi / (photon_count * area);
                 if m > 0 {
@@ -274,7 +294,18 @@ pub fn sppm_film(per_pass: &Film, pixels: &[SppmPixel], passes: u32, photons: u3
 }
 
 /// Pixel (x, y)'s camera path of pass `k` (the module's step 1).
-fn camera_path(ctx: &SppmContext, x: u32, y: u32, k: u32, rays: &mut u64) -> CameraPath {
+///
+/// `at_visible_point` adds what the visible point's own BSDF sample `bs` finds along its
+/// ray, drawing from the same sampler: [`bsdf_sampled_emission`] for SPPM, a final
+/// gather for the photon-map integrator (`super::photon`).
+pub(crate) fn camera_path(
+    ctx: &SppmContext,
+    x: u32,
+    y: u32,
+    k: u32,
+    rays: &mut u64,
+    at_visible_point: &dyn Fn(&SurfaceInteraction, &BsdfSample, Vec3, &mut PathSampler, &mut u64) -> Vec3,
+) -> CameraPath {
     let scene = ctx.scene;
     let lights = scene.light_arrays();
     let mut sampler = PathSampler::new(ctx.sampler, x, y, k, ctx.seed);
@@ -350,7 +381,7 @@ fn camera_path(ctx: &SppmContext, x: u32, y: u32, k: u32, rays: &mut u64) -> Cam
         let u_dir = sampler.next_direction_2d();
         let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { break };
         if !bs.is_delta && bsdf.has_diffuse_lobe() {
-            direct += bsdf_sampled_emission(scene, &si, &bs, beta, &mut sampler, rays);
+            direct += at_visible_point(&si, &bs, beta, &mut sampler, rays);
             let footprint = cone.width_at(travelled);
             let visible = VisiblePoint { si, bsdf, beta: beta / bsdf.non_delta_probability(), footprint };
             return CameraPath { direct, visible: beta.is_finite().then_some(visible) };
@@ -422,7 +453,7 @@ fn light_sample(
 /// sees, weighted by the power heuristic against [`light_sample`]: direct light reflected
 /// by a glossy visible point is found by whichever strategy suits it, as the path tracer
 /// finds it. One ray per visible point.
-fn bsdf_sampled_emission(
+pub(crate) fn bsdf_sampled_emission(
     scene: &FlatScene,
     si: &SurfaceInteraction,
     bs: &BsdfSample,
@@ -435,10 +466,23 @@ fn bsdf_sampled_emission(
         return Vec3::ZERO;
     }
     let ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
-    let beta = beta * bs.weight;
     *rays += 1;
     let alpha_seed = if scene.features.alpha { sampler.next_u32() } else { 0 };
-    let Some(hit) = scene.intersect_closest(&ray, alpha_seed) else {
+    let hit = scene.intersect_closest(&ray, alpha_seed);
+    beta * bs.weight * mis_weighted_emission(scene, &ray, hit.as_ref(), bs.pdf_solid_angle)
+}
+
+/// The emission a BSDF-sampled ray (`ray`, its hit `hit`, sampled with density
+/// `pdf_bsdf`) sees, weighted by the power heuristic against the light sample that could
+/// have found the same light: an emitter's front (or either side of a double-sided one), or
+/// the environment where it leaves the scene.
+pub(crate) fn mis_weighted_emission(
+    scene: &FlatScene,
+    ray: &Ray,
+    hit: Option<&ClosestHit>,
+    pdf_bsdf: f32,
+) -> Vec3 {
+    let Some(hit) = hit else {
         let env = &scene.environment;
         if env.params.present == 0 {
             return Vec3::ZERO;
@@ -447,14 +491,11 @@ fn bsdf_sampled_emission(
         let weight = if env.params.light_index == INVALID_INDEX {
             1.0
         } else {
-            power_heuristic(
-                bs.pdf_solid_angle,
-                scene.lights[env.params.light_index as usize].pmf * pdf_solid_angle,
-            )
+            power_heuristic(pdf_bsdf, scene.lights[env.params.light_index as usize].pmf * pdf_solid_angle)
         };
-        return beta * le * weight;
+        return le * weight;
     };
-    let hit_si = surface_interaction(scene, &ray, &hit, 0.0);
+    let hit_si = surface_interaction(scene, ray, hit, 0.0);
     let material = &scene.materials[hit_si.material as usize];
     if Vec3::from(material.emission).max_element() <= 0.0
         || !(hit_si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0)
@@ -467,14 +508,33 @@ fn bsdf_sampled_emission(
         1.0
     } else {
         let light = &scene.lights[hit_si.emitter as usize];
-        power_heuristic(bs.pdf_solid_angle, triangle_light_pdf(light, ray.origin, hit_si.p))
+        power_heuristic(pdf_bsdf, triangle_light_pdf(light, ray.origin, hit_si.p))
     };
-    beta * le * weight
+    le * weight
 }
 
-/// Pass `k`'s photons (the module's step 2), in photon order.
-fn trace_photons(ctx: &SppmContext, k: u32) -> (Vec<Photon>, SppmStats) {
-    let count = ctx.sppm.photons as usize;
+/// Which of a photon's landings are stored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum PhotonKind {
+    /// From the second bounce on: light that is not direct (SPPM's photons).
+    Indirect,
+    /// Every landing: direct light too (the photon-map integrator's global map).
+    All,
+    /// Landings reached from the light through delta bounces only, at least one (L S+ D,
+    /// the caustic map).
+    Caustic,
+}
+
+/// `count` photons of pass `pass` (the module's step 2), the landings `kind` keeps, in
+/// photon order.
+pub(crate) fn trace_photons(
+    ctx: &SppmContext,
+    pass: u32,
+    count: u32,
+    kind: PhotonKind,
+) -> (Vec<Photon>, SppmStats) {
+    let count = count as usize;
+    let k = pass;
     let bdpt = BdptContext::new(ctx.scene, ctx.camera, ctx.settings, ctx.width, ctx.height);
     let tasks: Vec<(Vec<Photon>, u64)> = (0..count.div_ceil(PHOTONS_PER_TASK))
         .into_par_iter()
@@ -483,7 +543,7 @@ fn trace_photons(ctx: &SppmContext, k: u32) -> (Vec<Photon>, SppmStats) {
             let mut rays = 0;
             for i in task * PHOTONS_PER_TASK..((task + 1) * PHOTONS_PER_TASK).min(count) {
                 let mut rng = Rng::new(i as u32, PHOTON_STREAM, k, ctx.seed);
-                trace_photon(&bdpt, &mut rng, &mut photons, &mut rays);
+                trace_photon(&bdpt, &mut rng, kind, &mut photons, &mut rays);
             }
             (photons, rays)
         })
@@ -501,18 +561,35 @@ fn trace_photons(ctx: &SppmContext, k: u32) -> (Vec<Photon>, SppmStats) {
     (photons, stats)
 }
 
-/// One photon's walk: a photon at every surface with a non-delta lobe from its second
-/// vertex on.
-fn trace_photon(ctx: &BdptContext, rng: &mut Rng, photons: &mut Vec<Photon>, rays: &mut u64) {
+/// One photon's walk: a photon at every surface with a non-delta lobe that `kind` keeps.
+fn trace_photon(
+    ctx: &BdptContext,
+    rng: &mut Rng,
+    kind: PhotonKind,
+    photons: &mut Vec<Photon>,
+    rays: &mut u64,
+) {
     let Some((mut from, mut walk)) = light_subpath_origin(ctx.scene, rng) else { return };
+    // Every bounce so far was by a delta lobe.
+    let mut delta_so_far = true;
     for here in 1.. {
         let Some(mut v) = walk.trace(ctx, rng, &from, rays) else { return };
         if let Some(surface) = &v.surface {
-            if here >= 2 && surface.bsdf.has_non_delta() && v.beta.is_finite() {
+            let kept = match kind {
+                PhotonKind::Indirect => here >= 2,
+                PhotonKind::All => true,
+                PhotonKind::Caustic => here >= 2 && delta_so_far,
+            };
+            if kept && surface.bsdf.has_non_delta() && v.beta.is_finite() {
                 photons.push(Photon { p: v.p, wi: surface.si.wo_world, beta: v.beta, n: v.n });
             }
         }
         if walk.scatter(ctx, rng, &mut v, &from, here).is_none() {
+            return;
+        }
+        delta_so_far &= v.delta;
+        if kind == PhotonKind::Caustic && !delta_so_far {
+            // No later landing can be a caustic's.
             return;
         }
         from = v;
@@ -522,7 +599,7 @@ fn trace_photon(ctx: &BdptContext, rng: &mut Rng, photons: &mut Vec<Photon>, ray
 /// The photons of a pass in a uniform hash grid (the module's step 3): cell (i, j, k) of
 /// edge `cell` holds the photons whose position falls in it, found through its hash's slot;
 /// cells that share a slot share its run (a gather tests every photon's distance anyway).
-struct PhotonGrid {
+pub(crate) struct PhotonGrid {
     cell: f32,
     /// Slots: a power of two, about one per photon.
     mask: u32,
@@ -533,7 +610,7 @@ struct PhotonGrid {
 }
 
 impl PhotonGrid {
-    fn build(photons: &[Photon], cell: f32) -> PhotonGrid {
+    pub(crate) fn build(photons: &[Photon], cell: f32) -> PhotonGrid {
         let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
         let slots = photons.len().next_power_of_two().max(1);
         let mask = (slots - 1) as u32;
@@ -568,16 +645,23 @@ impl PhotonGrid {
         h & self.mask
     }
 
-    /// Φ and M at visible point `vp` within `radius` (the module's step 4).
-    fn gather(&self, photons: &[Photon], vp: &VisiblePoint, radius: f32) -> (Vec3, u32) {
+    /// Φ = Σ β_p f(ω_o, ω_p) |ω_p·n_s| / |ω_p·n_g| and M over the photons within `radius`
+    /// of the surface point `si` whose BSDF is `bsdf` (the module's step 4).
+    pub(crate) fn gather(
+        &self,
+        photons: &[Photon],
+        si: &SurfaceInteraction,
+        bsdf: &GltfBsdf,
+        radius: f32,
+    ) -> (Vec3, u32) {
         let (mut phi, mut m) = (Vec3::ZERO, 0u32);
         if photons.is_empty() || radius <= 0.0 {
             return (phi, m);
         }
-        let lo = self.cell_of(vp.si.p - Vec3::splat(radius));
-        let hi = self.cell_of(vp.si.p + Vec3::splat(radius));
+        let lo = self.cell_of(si.p - Vec3::splat(radius));
+        let hi = self.cell_of(si.p + Vec3::splat(radius));
         let r2 = radius * radius;
-        let ng = vp.si.n_geometric;
+        let ng = si.n_geometric;
         // The slots of the cells the sphere overlaps, each once (cells may share a slot);
         // a range with more cells than there are slots reads every slot.
         let cells: i64 = (0..3).map(|a| (hi[a] as i64 - lo[a] as i64 + 1).max(1)).product();
@@ -600,18 +684,18 @@ impl PhotonGrid {
             let run = self.starts[s as usize] as usize..self.starts[s as usize + 1] as usize;
             for &i in &self.order[run] {
                 let photon = &photons[i as usize];
-                if (photon.p - vp.si.p).length_squared() > r2 || photon.n.dot(ng) < NORMAL_AGREEMENT {
+                if (photon.p - si.p).length_squared() > r2 || photon.n.dot(ng) < NORMAL_AGREEMENT {
                     continue;
                 }
-                let wi = vp.si.frame.to_local(photon.wi);
-                if !sides_agree(&vp.si, photon.wi, wi) {
+                let wi = si.frame.to_local(photon.wi);
+                if !sides_agree(si, photon.wi, wi) {
                     continue;
                 }
                 let cos_geometric = photon.wi.dot(ng).abs();
                 if cos_geometric <= 0.0 {
                     continue;
                 }
-                let f = vp.bsdf.eval(vp.si.wo, wi);
+                let f = bsdf.eval(si.wo, wi);
                 phi += photon.beta * f * (wi.z.abs() / cos_geometric);
                 m += 1;
             }

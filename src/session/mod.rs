@@ -108,6 +108,10 @@ pub struct SessionOptions {
     pub photons: Option<u32>,
     /// `RenderSettings::sppm_radius` (`--sppm-radius`).
     pub sppm_radius: Option<f32>,
+    /// `RenderSettings::caustic_photons` (`--caustic-photons`).
+    pub caustic_photons: Option<u32>,
+    /// `RenderSettings::gather_photons` (`--gather-photons`).
+    pub gather_photons: Option<u32>,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
     pub device: Option<String>,
@@ -144,6 +148,8 @@ impl SessionOptions {
             record_strategies: false,
             photons: None,
             sppm_radius: None,
+            caustic_photons: None,
+            gather_photons: None,
             backend: BackendChoice::Auto,
             device: None,
             outputs: OutputOptions::default(),
@@ -274,6 +280,8 @@ impl Session {
             record_strategies: options.record_strategies,
             photons: options.photons,
             sppm_radius: options.sppm_radius,
+            caustic_photons: options.caustic_photons,
+            gather_photons: options.gather_photons,
             aovs: options.outputs.needs_aovs() || options.aovs_available,
             adaptive: options.adaptive.is_some(),
             ..RenderSettings::default()
