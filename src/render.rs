@@ -57,7 +57,7 @@ pub struct RenderSettings {
     /// `None`: `integrator::photon::DEFAULT_GATHER_PHOTONS`.
     pub gather_photons: Option<u32>,
     /// Photon mapping only: the initial gather radius in pixel footprints (`--sppm-radius`);
-    /// `None`: `integrator::sppm::default_sppm_radius_pixels`.
+    /// `None`: `integrator::sppm::DEFAULT_SPPM_RADIUS_PIXELS`.
     pub sppm_radius: Option<f32>,
 }
 

@@ -58,13 +58,14 @@ fn mean_and_error(film: &Film) -> (f64, f64) {
 }
 
 /// The bias bound of a 256-pass SPPM image mean at 24² against the path tracer's: the
-/// blur of a radius that started at 3 pixel footprints and has shrunk to about one moves
-/// light across the edges of the small images. The largest offset measured over the
-/// bundled scenes when this was written was 1.2% (cornell-tiny-light: a small light's
-/// sharp shadow edges, blurred). The photon-map integrator with its default maps (2¹⁸
-/// photons each, 32 per global estimate) is held to the same bound: its largest offset
-/// measured was 0.9% (glass-index-1).
-const IMAGE_MEAN_BIAS_24PX_256_PASSES: f64 = 0.02;
+/// blur of a radius that started at 3 pixel footprints (an eighth of these small images)
+/// darkens corners and edges and moves light across shadow boundaries. The largest offset
+/// measured over the bundled scenes when this was written was −3.8% (cornell-tiny-light,
+/// whose light is mostly indirect; the Cornell box −1.7%). The photon-map integrator with
+/// its default maps (2¹⁸ photons each, 32 per global estimate) is held to the same bound:
+/// its largest offset measured was −1.9% (glass-index-1), leaving aside the lamp room,
+/// whose path-traced reference is itself noisy at 1,024 samples.
+const IMAGE_MEAN_BIAS_24PX_256_PASSES: f64 = 0.05;
 
 /// `integrator`'s image mean (256 samples or passes) within
 /// [`IMAGE_MEAN_BIAS_24PX_256_PASSES`] of the path tracer's, plus 5 standard errors of
@@ -272,8 +273,8 @@ fn masked_mean(film: &Film, mask: &[bool]) -> (f64, f64) {
 /// through the glass or in the mirror sphere, the caustic is light from a point through a
 /// delta surface onto a diffuse one and back through a delta surface to the camera
 /// (L S D S E): no BDPT strategy can make such a path, and SPPM renders it, so its whole
-/// image is brighter than BDPT's by many standard errors (by 10% when this was written:
-/// 0.273 against 0.246 on a 32² image, while the diffuse view agreed to 1%).
+/// image is brighter than BDPT's by many standard errors (by 14% when this was written:
+/// 0.280 against 0.246 on a 32² image, while the diffuse view agreed to 2%).
 #[test]
 fn sppm_equals_bdpt_where_bdpt_can_see_a_spot_lights_caustic_and_adds_what_it_cannot() {
     let size = 32;

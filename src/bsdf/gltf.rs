@@ -363,6 +363,12 @@ impl GltfBsdf {
         p
     }
 
+    /// Has it a non-delta transmission lobe (rough glass, a rough thin surface)? Light then
+    /// reaches a point from either side of its surface.
+    pub fn has_rough_transmission(&self) -> bool {
+        self.p_transmit > 0.0 && !self.transmission_is_delta
+    }
+
     /// Has it a diffuse lobe (Lambert or sheen)? Photon mapping gathers photons where it has
     /// (`crate::integrator::sppm`).
     pub fn has_diffuse_lobe(&self) -> bool {

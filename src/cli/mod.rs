@@ -113,7 +113,7 @@ pub struct SceneArgs {
     #[arg(long, value_name = "K")]
     pub gather_photons: Option<u32>,
     /// With --integrator sppm: the initial photon gather radius, in pixel footprints at
-    /// each pixel's first visible point (default: a tenth of the image height, at least 3).
+    /// each pixel's first visible point (default 3).
     #[arg(long, value_name = "PIXELS")]
     pub sppm_radius: Option<f32>,
     /// Camera index in the file (default: the first camera, or one framing the scene).

@@ -175,9 +175,7 @@ impl CpuBackend<'_> {
                 .photons
                 .unwrap_or(s.width * s.height)
                 .min(crate::integrator::sppm::MAX_PHOTONS_PER_PASS),
-            radius_pixels: s
-                .sppm_radius
-                .unwrap_or_else(|| crate::integrator::sppm::default_sppm_radius_pixels(s.height)),
+            radius_pixels: s.sppm_radius.unwrap_or(crate::integrator::sppm::DEFAULT_SPPM_RADIUS_PIXELS),
         }
     }
 

@@ -26,7 +26,8 @@
 //!    scatter ([`PhotonGrid`]): every photon lands in its cell's run, in photon order, so a
 //!    gather reads the same photons in the same order on any thread count.
 //! 4. **Update.** Each visible point gathers the photons within its pixel's radius r whose
-//!    surface faces its own (geometric normals within [`NORMAL_AGREEMENT`]), Φ = Σ β_p
+//!    surface faces its own (geometric normals within [`NORMAL_AGREEMENT`]) and that
+//!    arrived on the same side of their surface as the visible point's camera ray, Φ = Σ β_p
 //!    f(ω_o, ω_p) |ω_p·n_s| / |ω_p·n_g| (the last ratio turns flux per unit of geometric area
 //!    into the shading normal's cosine), M of them; then pbrt's update with α = 2/3:
 //!    N' = N + αM, r' = r √(N'/(N + M)), τ' = (τ + β Φ) r'²/r².
@@ -44,7 +45,8 @@
 //!
 //! **Initial radius.** `radius_pixels` pixel footprints at the pixel's first visible point
 //! (the camera ray cone's width at the distance travelled): scale-free, as a world-space
-//! radius is not; by default a tenth of the image's height ([`default_sppm_radius_pixels`]).
+//! radius is not ([`DEFAULT_SPPM_RADIUS_PIXELS`]). The footprint is one pixel's, not the
+//! narrower cone the texture filter reads with many samples per pixel.
 //!
 //! **Random numbers.** The camera path draws from its pixel's [`PathSampler`] for sample
 //! index k: pixel jitter (2-D), then per vertex [alpha], the light sample (2-D) and [alpha]
@@ -80,20 +82,11 @@ pub const SPPM_ALPHA: f32 = 2.0 / 3.0;
 /// the light tracer's paths have `LIGHT_PATH_STREAM` (u32::MAX).
 pub const PHOTON_STREAM: u32 = u32::MAX - 1;
 
-/// The least initial radius in pixel footprints unless told otherwise (`--sppm-radius`):
-/// wide enough that a pass of one photon per pixel finds a few photons in most pixels of
-/// the bundled scenes ([`default_sppm_radius_pixels`]).
+/// The initial radius in pixel footprints unless told otherwise (`--sppm-radius`): on the
+/// 128² Cornell box at 9 s, 3 pixels had the least error of 1, 2, 3, 6 and 12.8 (relMSE
+/// 9.5, 3.6, 2.9, 5.8 and 12.9 ·10⁻⁴: noise below 3, the blur's bias above), and a pass
+/// of one photon per pixel finds a few dozen photons in most pixels' disks.
 pub const DEFAULT_SPPM_RADIUS_PIXELS: f32 = 3.0;
-
-/// The initial radius in pixel footprints unless told otherwise: a tenth of the image's
-/// height, and at least [`DEFAULT_SPPM_RADIUS_PIXELS`]. With one photon per pixel a disk of
-/// R pixels holds about as many photons per pass at any resolution, so a radius that is a
-/// fixed share of the image keeps its blur, as a share of the image, the same, and lets a
-/// larger image average more photons. On the 128² Cornell box at 9 s, 12.8 pixels had 8×
-/// less error than 3 (noise, not bias, dominated both: `bench/RESULTS.md`).
-pub fn default_sppm_radius_pixels(height: u32) -> f32 {
-    (height as f32 / 10.0).max(DEFAULT_SPPM_RADIUS_PIXELS)
-}
 
 /// The most photons one pass may trace (`--photons`).
 pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 24;
@@ -311,6 +304,9 @@ pub(crate) fn camera_path(
     let mut sampler = PathSampler::new(ctx.sampler, x, y, k, ctx.seed);
     let mut ray = generate_camera_ray(ctx.camera, ctx.width, ctx.height, x, y, sampler.next_2d());
     let cone = camera_ray_cone(ctx.camera, ctx.height, ctx.passes);
+    // One pixel's cone, for the radius: the texture cone above narrows with the samples
+    // per pixel (a texture filter's footprint is the samples', not the pixel's).
+    let pixel_cone = camera_ray_cone(ctx.camera, ctx.height, 1);
     let mut beta = Vec3::ONE;
     let mut eta_scale = 1.0f32;
     let mut travelled = 0.0f32;
@@ -382,7 +378,7 @@ pub(crate) fn camera_path(
         let Some(bs) = bsdf.sample(si.wo, u_lobe, u_dir) else { break };
         if !bs.is_delta && bsdf.has_diffuse_lobe() {
             direct += at_visible_point(&si, &bs, beta, &mut sampler, rays);
-            let footprint = cone.width_at(travelled);
+            let footprint = pixel_cone.width_at(travelled);
             let visible = VisiblePoint { si, bsdf, beta: beta / bsdf.non_delta_probability(), footprint };
             return CameraPath { direct, visible: beta.is_finite().then_some(visible) };
         }
@@ -662,6 +658,7 @@ impl PhotonGrid {
         let hi = self.cell_of(si.p + Vec3::splat(radius));
         let r2 = radius * radius;
         let ng = si.n_geometric;
+        let transmits = bsdf.has_rough_transmission();
         // The slots of the cells the sphere overlaps, each once (cells may share a slot);
         // a range with more cells than there are slots reads every slot.
         let cells: i64 = (0..3).map(|a| (hi[a] as i64 - lo[a] as i64 + 1).max(1)).product();
@@ -685,6 +682,15 @@ impl PhotonGrid {
             for &i in &self.order[run] {
                 let photon = &photons[i as usize];
                 if (photon.p - si.p).length_squared() > r2 || photon.n.dot(ng) < NORMAL_AGREEMENT {
+                    continue;
+                }
+                // Back-facing photons: one that arrived on the other side of its own surface
+                // than the visible point's (the inside of a thin lampshade's next facet, seen
+                // from outside) is light the point cannot receive. Each is judged by its own
+                // surface's normal: a direction can be on the point's side of the point's
+                // plane and still have reached the far side of a facet meeting it.
+                // A surface that transmits (rough glass) receives light from both sides.
+                if !transmits && (photon.wi.dot(photon.n) > 0.0) != (si.wo_world.dot(ng) > 0.0) {
                     continue;
                 }
                 let wi = si.frame.to_local(photon.wi);
