@@ -233,8 +233,9 @@ impl RenderSettings {
         if self.adaptive && self.integrator != Integrator::Path {
             return Err(crate::Error::Settings(format!(
                 "--adaptive renders with --integrator path only, not {}: a bidirectional pass \
-                 normalises its light-to-camera splats by one light subpath per pixel, which a pixel \
-                 that stops would take away",
+                 normalises its light-to-camera splats by one light subpath per pixel, and photon \
+                 mapping's passes share photons among all pixels, which a pixel that stops would \
+                 take away",
                 self.integrator
             )));
         }

@@ -90,6 +90,48 @@ fn renders_cornell_box_to_exr_and_png() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Both photon integrators render from the command line: `auto` says it renders them on
+/// the CPU, the summary reports the photons, and the EXR names the integrator and says what
+/// its variance channels measure.
+#[test]
+fn photon_mapping_renders_say_what_their_variance_means() {
+    let dir = temp_dir("photon");
+    let scene = common::scene("cornell-box.gltf");
+    for (integrator, report) in
+        [("sppm", "sppm: 4 passes"), ("photon", "photons stored in the global and caustic maps")]
+    {
+        let exr = dir.join(format!("{integrator}.exr"));
+        let out = pathlight()
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "--integrator",
+                integrator,
+                "--spp",
+                "4",
+                "--width",
+                "16",
+            ])
+            .arg("-o")
+            .arg(&exr)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{integrator}: {stderr}");
+        assert!(stderr.contains(report), "{integrator}: {stderr}");
+        let image = pathlight::film::read_exr(&exr).unwrap();
+        assert_eq!(image.attributes["pathlight.integrator"], integrator);
+        assert!(
+            image.attributes["pathlight.variance"].contains("noise only"),
+            "{integrator}: {:?}",
+            image.attributes
+        );
+        let mean = image.channels["G"].iter().sum::<f32>() / image.channels["G"].len() as f32;
+        assert!(mean > 0.05, "{integrator}: the Cornell box is lit (mean G {mean})");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bad_input_gets_a_clear_error() {
     let dir = temp_dir("errors");
