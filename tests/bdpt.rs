@@ -4,7 +4,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use pathlight::cpu::CpuBackend;
 use pathlight::film::Film;
@@ -37,16 +37,6 @@ fn write_failure(name: &str, film: &Film) -> PathBuf {
     let path = failure_dir().join(format!("{name}.png"));
     common::write_debug_png(&path, film.width as usize, film.height as usize, &film.mean(), 1.0);
     path
-}
-
-fn gltf_files(dir: &Path) -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "gltf" || e == "glb"))
-        .collect();
-    files.sort();
-    files
 }
 
 /// BDPT against the path tracer on `scene`, independent seeds: `Err` names what differs and
@@ -96,8 +86,8 @@ fn bdpt_equals_path_on_each(what: &str, scenes: impl IntoIterator<Item = (String
 #[test]
 fn bdpt_equals_the_path_tracer_on_every_bundled_scene() {
     let size = 24;
-    let mut files = gltf_files(&common::root().join("scenes"));
-    files.extend(gltf_files(&common::root().join("scenes/hard")));
+    let mut files = common::gltf_files(&common::root().join("scenes"));
+    files.extend(common::gltf_files(&common::root().join("scenes/hard")));
     // 11 scenes in scenes/ and 24 in scenes/hard/ when this was written: a listing that
     // found far fewer would be testing nothing.
     assert!(files.len() >= 30, "found only {} scenes", files.len());

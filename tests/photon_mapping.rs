@@ -8,8 +8,6 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-
 use pathlight::cpu::CpuBackend;
 use pathlight::film::Film;
 use pathlight::integrator::Integrator;
@@ -22,16 +20,6 @@ fn settings(integrator: Integrator, size: u32, spp: u32, seed: u32) -> RenderSet
 
 fn render(scene: &FlatScene, settings: &RenderSettings) -> Film {
     common::render(&mut CpuBackend::new(scene, settings), settings.spp)
-}
-
-fn gltf_files(dir: &Path) -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "gltf" || e == "glb"))
-        .collect();
-    files.sort();
-    files
 }
 
 /// relMSE of `film` against `reference`, the reference's own variance taken out (so that a
@@ -73,8 +61,8 @@ const IMAGE_MEAN_BIAS_24PX_256_PASSES: f64 = 0.05;
 /// scene.
 fn equals_the_path_tracer_within_its_bias_on_every_bundled_scene(integrator: Integrator) {
     let size = 24;
-    let mut files = gltf_files(&common::root().join("scenes"));
-    files.extend(gltf_files(&common::root().join("scenes/hard")));
+    let mut files = common::gltf_files(&common::root().join("scenes"));
+    files.extend(common::gltf_files(&common::root().join("scenes/hard")));
     // 11 scenes in scenes/ and 24 in scenes/hard/ when this was written.
     assert!(files.len() >= 30, "found only {} scenes", files.len());
     let mut failures = Vec::new();

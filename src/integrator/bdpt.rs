@@ -268,8 +268,9 @@ impl Seen {
     }
 }
 
-/// A surface vertex's material, textured at the finest level (the module's "Textures").
-fn vertex_material(scene: &FlatScene, si: &SurfaceInteraction) -> Material {
+/// A surface vertex's material, textured at the finest level (the module's "Textures"):
+/// photon mapping's final gather reads it so too (`super::photon`).
+pub(crate) fn vertex_material(scene: &FlatScene, si: &SurfaceInteraction) -> Material {
     let m = scene.materials[si.material as usize];
     if scene.features.textures {
         textured_material(&m, &scene.texture_arrays(), si.uv, Vec2::splat(LOD_FINEST))

@@ -188,7 +188,7 @@ fn trace(
             break;
         }
         let bsdf = GltfBsdf::new(material, si.wo, si.front_face, si.coat_normal);
-        l += next_event(tracer, &si, &bsdf, path.beta, rng, rays);
+        l += next_event(scene, tracer.lights, &si, &bsdf, path.beta, rng, rays);
 
         if splits > 1 && bsdf.has_non_delta() {
             // The continuations, each from a copy of the path and its own numbers. A poisoned
@@ -221,23 +221,24 @@ fn trace(
 }
 
 /// Next-event estimation at `si`: one light sample, MIS-weighted against the BSDF's
-/// sampling (Veach 1997 §9.2), times the throughput `beta`.
+/// sampling (Veach 1997 §9.2), times the throughput `beta`. Photon mapping's camera paths
+/// take the same sample (`super::sppm`).
 #[inline(always)]
-fn next_event(
-    tracer: &Tracer,
+pub(crate) fn next_event(
+    scene: &FlatScene,
+    lights: LightArrays,
     si: &SurfaceInteraction,
     bsdf: &GltfBsdf,
     beta: Vec3,
     rng: &mut PathSampler,
     rays: &mut u64,
 ) -> Vec3 {
-    let scene = tracer.scene;
     if !bsdf.has_non_delta() || scene.lights.is_empty() {
         return Vec3::ZERO;
     }
     // One 2-D point chooses the light and the point on it (`choose_light_reusing`).
     let u_light = rng.next_2d();
-    let Some(ls) = sample_light(tracer.lights, si.p, si.p_error, si.n_geometric, u_light) else {
+    let Some(ls) = sample_light(lights, si.p, si.p_error, si.n_geometric, u_light) else {
         return Vec3::ZERO;
     };
     let wi = si.frame.to_local(ls.wi);

@@ -30,6 +30,7 @@
 
 use glam::Vec3;
 
+use super::bdpt::vertex_material;
 use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
 use super::sppm::{
     camera_path, mis_weighted_emission, trace_photons, Photon, PhotonGrid, PhotonKind, SppmContext, SppmStats,
@@ -38,7 +39,6 @@ use crate::bsdf::{BsdfSample, GltfBsdf};
 use crate::geometry::spawn_ray;
 use crate::sampling::PathSampler;
 use crate::scene::layout::MATERIAL_VOLUME;
-use crate::scene::texture::{textured_material, LOD_FINEST};
 use crate::scene::FlatScene;
 
 /// The caustic estimate's radius in pixel footprints at the visible point: caustics are
@@ -194,12 +194,7 @@ fn final_gather(
         }
         let Some(hit) = hit else { return emission };
         let here = surface_interaction(scene, &ray, &hit, 0.0);
-        let untextured = &scene.materials[here.material as usize];
-        let material = if scene.features.textures {
-            textured_material(untextured, &scene.texture_arrays(), here.uv, glam::Vec2::splat(LOD_FINEST))
-        } else {
-            *untextured
-        };
+        let material = vertex_material(scene, &here);
         if material.flags & MATERIAL_VOLUME != 0 && !here.front_face {
             beta *= (-Vec3::from(material.attenuation_coefficient) * here.distance).exp();
         }

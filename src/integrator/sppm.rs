@@ -60,13 +60,14 @@ use rayon::prelude::*;
 use super::bdpt::{light_subpath_origin, BdptContext};
 use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
 use super::mis::power_heuristic;
+use super::path::next_event;
 use super::roulette::{survival_probability, MAX_BOUNCES_GUARD, RR_ANY_BOUNCE_DEPTH};
 use super::IntegratorSettings;
 use crate::bsdf::{BsdfSample, GltfBsdf};
 use crate::bvh::ClosestHit;
 use crate::film::{film_add_sample, Film};
 use crate::geometry::{spawn_ray, Ray};
-use crate::light::{environment_lookup, sample_light, triangle_light_pdf, LightArrays};
+use crate::light::{environment_lookup, triangle_light_pdf};
 use crate::sampling::{replicate_of, PathSampler, Rng, SamplerKind};
 use crate::scene::camera::{camera_ray_cone, generate_camera_ray};
 use crate::scene::layout::{Camera, INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
@@ -366,7 +367,7 @@ pub(crate) fn camera_path(
         }
         let bsdf = GltfBsdf::new(material, si.wo, si.front_face, si.coat_normal);
         if bsdf.has_non_delta() {
-            direct += light_sample(scene, lights, &si, &bsdf, beta, &mut sampler, rays);
+            direct += next_event(scene, lights, &si, &bsdf, beta, &mut sampler, rays);
         }
         let u_lobe = if bsdf.chooses_a_lobe() {
             sampler.next_1d()
@@ -412,41 +413,8 @@ pub(crate) fn camera_path(
     CameraPath { direct, visible: None }
 }
 
-/// One light sample at `si` (next-event estimation, `super::path`'s), weighted by the
-/// power heuristic against the BSDF's sampling ([`bsdf_sampled_emission`] takes the
-/// other share), times the throughput `beta`.
-fn light_sample(
-    scene: &FlatScene,
-    lights: LightArrays,
-    si: &SurfaceInteraction,
-    bsdf: &GltfBsdf,
-    beta: Vec3,
-    sampler: &mut PathSampler,
-    rays: &mut u64,
-) -> Vec3 {
-    if scene.lights.is_empty() {
-        return Vec3::ZERO;
-    }
-    let u_light = sampler.next_2d();
-    let Some(ls) = sample_light(lights, si.p, si.p_error, si.n_geometric, u_light) else {
-        return Vec3::ZERO;
-    };
-    let wi = si.frame.to_local(ls.wi);
-    let f = if sides_agree(si, ls.wi, wi) { bsdf.eval(si.wo, wi) } else { Vec3::ZERO };
-    if f.max_element() <= 0.0 || ls.pdf <= 0.0 {
-        return Vec3::ZERO;
-    }
-    *rays += 1;
-    let alpha_seed = if scene.features.alpha { sampler.next_u32() } else { 0 };
-    if scene.intersect_any(&ls.shadow_ray, alpha_seed) {
-        return Vec3::ZERO;
-    }
-    let weight = if ls.is_delta { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(si.wo, wi)) };
-    beta * f * wi.z.abs() * ls.radiance * (weight / ls.pdf)
-}
-
 /// The emitter (or the environment) the visible point's own non-delta BSDF sample `bs`
-/// sees, weighted by the power heuristic against [`light_sample`]: direct light reflected
+/// sees, weighted by the power heuristic against [`next_event`]: direct light reflected
 /// by a glossy visible point is found by whichever strategy suits it, as the path tracer
 /// finds it. One ray per visible point.
 pub(crate) fn bsdf_sampled_emission(

@@ -347,3 +347,14 @@ pub fn leaf_depths(nodes: &[pathlight::scene::layout::BvhNode]) -> Vec<u32> {
     }
     depths
 }
+
+/// The glTF scenes (`.gltf`, `.glb`) in `dir`, sorted.
+pub fn gltf_files(dir: &std::path::Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "gltf" || e == "glb"))
+        .collect();
+    files.sort();
+    files
+}
