@@ -59,6 +59,9 @@ pub struct RenderSettings {
     /// Photon mapping only: the initial gather radius in pixel footprints (`--sppm-radius`);
     /// `None`: `integrator::sppm::DEFAULT_SPPM_RADIUS_PIXELS`.
     pub sppm_radius: Option<f32>,
+    /// The path tracer's irradiance cache (`--irradiance-cache`,
+    /// `integrator::irradiance_cache`); `None`: none.
+    pub irradiance_cache: Option<crate::integrator::irradiance_cache::IrradianceCacheSettings>,
 }
 
 impl Default for RenderSettings {
@@ -82,6 +85,7 @@ impl Default for RenderSettings {
             caustic_photons: None,
             gather_photons: None,
             sppm_radius: None,
+            irradiance_cache: None,
         }
     }
 }
@@ -239,6 +243,34 @@ impl RenderSettings {
                 self.integrator
             )));
         }
+        if let Some(cache) = &self.irradiance_cache {
+            if self.integrator != Integrator::Path {
+                return Err(crate::Error::Settings(format!(
+                    "--irradiance-cache is an option of --integrator path, not of --integrator {}",
+                    self.integrator
+                )));
+            }
+            cache.validate()?;
+            if self.max_depth.is_some() {
+                return Err(crate::Error::Settings(
+                    "--max-depth is not supported with --irradiance-cache: a record's gather is shared by \
+                     camera paths of any depth"
+                        .into(),
+                ));
+            }
+            if self.splits > 1 {
+                return Err(crate::Error::Settings(format!(
+                    "--splits {} with --irradiance-cache: the cache already gives the first Lambertian \
+                     vertex's indirect light, so its path is not split (--splits 1)",
+                    self.splits
+                )));
+            }
+            if self.adaptive {
+                return Err(crate::Error::Settings(
+                    "--adaptive with --irradiance-cache: the cache's error is bias, which more samples in a pixel do not remove".into(),
+                ));
+            }
+        }
         if !(1..=MAX_SPLITS).contains(&self.splits) {
             return Err(crate::Error::Settings(format!(
                 "--splits must be between 1 and {MAX_SPLITS}, not {}",
@@ -269,6 +301,17 @@ pub trait Backend {
     fn aovs(&mut self) -> Result<Vec<crate::scene::layout::PixelAov>>;
     /// What the photon passes counted (`None` for other integrators).
     fn sppm_stats(&mut self) -> Option<crate::integrator::sppm::SppmStats> {
+        None
+    }
+    /// What placing the irradiance cache counted (`None` without one).
+    fn irradiance_cache_stats(
+        &mut self,
+    ) -> Option<crate::integrator::irradiance_cache::IrradianceCacheStats> {
+        None
+    }
+    /// The pixels whose camera paths placed the irradiance cache's records
+    /// (`--ic-show-records`; `None` without a cache).
+    fn irradiance_record_pixels(&mut self) -> Option<Vec<(u32, u32)>> {
         None
     }
     /// What bidirectional path tracing counted (`None` for other integrators).

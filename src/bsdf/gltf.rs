@@ -375,6 +375,55 @@ impl GltfBsdf {
         self.p_diffuse > 0.0 || self.p_sheen > 0.0
     }
 
+    /// Has it a Lambertian lobe (the dielectric base's diffuse term)? The irradiance cache
+    /// stands in for that lobe's indirect light (`crate::integrator::irradiance_cache`).
+    pub fn has_lambert_lobe(&self) -> bool {
+        self.p_diffuse > 0.0
+    }
+
+    /// The Lambertian lobe's share of [`Self::eval`], without the cosine: what the coat and
+    /// sheen let through, times (1 − metallic)(1 − max F_d(|wo·h|))(1 − transmission)
+    /// baseColor/π. Zero below the surface.
+    pub fn eval_diffuse(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        if self.lambertian {
+            return self.base_color * lambert_eval(wi);
+        }
+        if self.p_diffuse <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let Some(h) = reflection_half_vector(wo, wi) else { return Vec3::ZERO };
+        let fd = self.dielectric_fresnel(wo.dot(h));
+        let diffuse = self.base_color * (1.0 - self.transmission) * lambert_eval(wi);
+        let base = (1.0 - self.metallic) * (1.0 - fd.max_element()) * diffuse;
+        base * (self.coat_transmittance * self.sheen_scaling(wo.z, wi.z))
+    }
+
+    /// The Lambertian lobe's directional albedo ∫ f_diffuse(wo, ωi) cos θi dωi: baseColor
+    /// for a matte BSDF, else a fixed 4 × 4 stratified cosine quadrature of
+    /// [`Self::eval_diffuse`] (its Fresnel and sheen factors vary slowly with ωi). Under
+    /// light that is the same from every direction, the lobe reflects exactly albedo · E/π.
+    pub fn diffuse_albedo(&self, wo: Vec3) -> Vec3 {
+        if self.lambertian {
+            return if wo.z > 0.0 { self.base_color } else { Vec3::ZERO };
+        }
+        if self.p_diffuse <= 0.0 {
+            return Vec3::ZERO;
+        }
+        const STRATA: u32 = 4;
+        let mut sum = Vec3::ZERO;
+        for i in 0..STRATA {
+            for j in 0..STRATA {
+                let u = Vec2::new((i as f32 + 0.5) / STRATA as f32, (j as f32 + 0.5) / STRATA as f32);
+                // f · cos θ / (cos θ / π) for cosine-distributed directions.
+                sum += self.eval_diffuse(wo, lambert_sample(u)) * std::f32::consts::PI;
+            }
+        }
+        sum / (STRATA * STRATA) as f32
+    }
+
     /// Is this nothing but the diffuse lobe, f = baseColor/π?
     pub fn is_lambertian(&self) -> bool {
         self.lambertian

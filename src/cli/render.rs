@@ -32,6 +32,10 @@ pub struct RenderArgs {
     /// id): the sample indices ⌊I·spp/N⌋..⌊(I+1)·spp/N⌋, as --samples.
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     shard: Option<(u32, u32)>,
+    /// With --irradiance-cache: also write this PNG, the image darkened with a red dot at
+    /// each pixel whose camera path placed a record (for debugging where records go).
+    #[arg(long, value_name = "OUT.png", requires = "irradiance_cache")]
+    ic_show_records: Option<PathBuf>,
     /// PNG exposure in stops.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
@@ -260,6 +264,18 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
             pathlight::integrator::bdpt::BDPT_MAX_VERTICES
         );
     }
+    if let Some(cache) = session.irradiance_cache_stats() {
+        eprintln!(
+            "irradiance cache: {} records placed in {:.2} s ({} gather rays), {:.0} KiB; the variance channels and the predicted error measure the samples' noise given the cache, not its interpolation bias",
+            cache.records,
+            cache.seconds,
+            cache.gather_rays,
+            cache.bytes as f64 / 1024.0
+        );
+    }
+    if let Some(path) = &args.ic_show_records {
+        write_record_image(&mut session, path, args.tonemap.into(), args.exposure)?;
+    }
     if let Some(sppm) = session.sppm_stats().filter(|s| s.passes == 0) {
         eprintln!(
             "photon: {} photons stored in the global and caustic maps; the variance channels and the predicted error measure its noise given the maps, not their bias",
@@ -282,6 +298,34 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
     if let Some(dir) = &args.bdpt_strategies {
         write_strategy_images(&mut session, dir, width as usize, height as usize)?;
     }
+    Ok(())
+}
+
+/// `--ic-show-records OUT.png`: the image at half brightness, a red pixel where each record's
+/// camera path started.
+fn write_record_image(
+    session: &mut Session,
+    path: &std::path::Path,
+    tonemap: pathlight::film::Tonemap,
+    exposure: f32,
+) -> Result<(), Error> {
+    let pixels = session.irradiance_record_pixels().ok_or_else(|| {
+        Error::Settings(format!(
+            "--ic-show-records: the {} backend placed no irradiance cache",
+            session.backend_name()
+        ))
+    })?;
+    let film = session.film()?;
+    let mut image: Vec<glam::Vec3> = film.mean().iter().map(|c| *c * 0.5).collect();
+    // Red at any exposure and tone curve: far past white in red, nothing in green and blue.
+    let marker = glam::Vec3::new(1e6, 0.0, 0.0);
+    for (x, y) in pixels {
+        if x < film.width && y < film.height {
+            image[(y * film.width + x) as usize] = marker;
+        }
+    }
+    pathlight::film::write_png_rgb(film.width, film.height, &image, path, tonemap, exposure)?;
+    eprintln!("irradiance cache records drawn on {}", path.display());
     Ok(())
 }
 

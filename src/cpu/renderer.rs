@@ -5,6 +5,7 @@ use rayon::prelude::*;
 use crate::film::{film_add_sample, Film};
 use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, StrategyImages, Subpaths};
 use crate::integrator::delta_view::camera_sees_only_delta_surfaces;
+use crate::integrator::irradiance_cache::{IrradianceCache, IrradianceCacheContext, IrradianceCacheStats};
 use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
 use crate::integrator::photon::{photon_map_sample, PhotonMapSettings, PhotonMaps, DEFAULT_GATHER_PHOTONS};
@@ -71,6 +72,9 @@ pub struct CpuBackend<'a> {
     /// The photon-map integrator's maps, traced before its first sample and kept (they do
     /// not depend on the camera).
     photon_maps: Option<PhotonMaps>,
+    /// The path tracer's irradiance cache, placed before its first sample for the current
+    /// camera (`RenderSettings::irradiance_cache`).
+    irradiance_cache: Option<IrradianceCache>,
 }
 
 /// A photon-mapping render's progressive state.
@@ -125,6 +129,7 @@ impl<'a> CpuBackend<'a> {
             budgets: None,
             sppm: (settings.integrator == Integrator::Sppm).then(|| SppmRender::new(settings)),
             photon_maps: None,
+            irradiance_cache: None,
         }
     }
 
@@ -140,7 +145,9 @@ impl<'a> CpuBackend<'a> {
     /// the scene and camera allow it)?
     pub fn light_traces_caustics(&self) -> bool {
         // BDPT makes the light tracer's paths with its own t = 1 strategy.
+        // Under an irradiance cache the gathers see the caustics themselves.
         self.settings.integrator == Integrator::Path
+            && self.settings.irradiance_cache.is_none()
             && self.scene_light_traced
             && camera_supports_light_tracing(&self.camera)
             && !self.camera_sees_only_delta
@@ -275,6 +282,30 @@ impl CpuBackend<'_> {
         self.photon_maps = Some(maps);
     }
 
+    /// What placing the irradiance cache counted (`None` without one, or before it is
+    /// placed).
+    pub fn irradiance_cache_stats(&self) -> Option<IrradianceCacheStats> {
+        self.irradiance_cache.as_ref().map(|c| c.stats)
+    }
+
+    /// The irradiance cache for the current camera, placed if it is not yet.
+    fn ensure_irradiance_cache(&mut self, integrator: &IntegratorSettings) {
+        let Some(settings) = self.settings.irradiance_cache else { return };
+        if self.irradiance_cache.is_some() {
+            return;
+        }
+        let ctx = IrradianceCacheContext {
+            scene: &self.scene,
+            camera: &self.camera,
+            integrator,
+            settings,
+            width: self.settings.width,
+            height: self.settings.height,
+            seed: self.settings.seed,
+        };
+        self.irradiance_cache = Some(IrradianceCache::build(&ctx));
+    }
+
     /// The light tracer's paths for sample index `k`: one per pixel that takes it.
     fn light_paths(&self, k: u32) -> usize {
         let pixels = self.settings.width as usize * self.settings.height as usize;
@@ -314,6 +345,7 @@ impl CpuBackend<'_> {
             }
             return;
         }
+        self.ensure_irradiance_cache(&integrator);
         if !integrator.caustics_by_light_tracing {
             return self.render_band_with(samples, rows, &integrator, None);
         }
@@ -443,6 +475,7 @@ impl CpuBackend<'_> {
         let w = width as usize;
         let band = rows.start as usize * w..rows.end.min(height) as usize * w;
         let budgets = self.budgets.as_deref();
+        let cache = self.irradiance_cache.as_ref();
         self.film.pixels[band.clone()]
             .par_chunks_mut(w)
             .zip(self.rays[band].par_chunks_mut(w))
@@ -457,7 +490,9 @@ impl CpuBackend<'_> {
                         let ray =
                             generate_camera_ray(camera, width, height, x as u32, y as u32, sampler.next_2d());
                         let l = match s.integrator {
-                            Integrator::Path => radiance(scene, integrator, ray, cone, &mut sampler, rays),
+                            Integrator::Path => {
+                                radiance(scene, integrator, cache, ray, cone, &mut sampler, rays)
+                            }
                             Integrator::Bdpt | Integrator::Sppm | Integrator::Photon => {
                                 unreachable!("rendered by their own bands")
                             }
@@ -524,6 +559,8 @@ impl Backend for CpuBackend<'_> {
         self.camera_sees_only_delta = joins_camera && camera_sees_only_delta_surfaces(&self.scene, camera);
         self.caustic_pass = None;
         self.bdpt_pass = None;
+        // Records are placed where this camera's paths land.
+        self.irradiance_cache = None;
         Ok(())
     }
 
@@ -549,7 +586,8 @@ impl Backend for CpuBackend<'_> {
 
     fn rays_traced(&mut self) -> crate::Result<u64> {
         let photon_rays = self.sppm_stats().map_or(0, |s| s.photon_rays);
-        Ok(self.rays.iter().sum::<u64>() + self.light_rays + photon_rays)
+        let cache_rays = self.irradiance_cache_stats().map_or(0, |s| s.gather_rays + s.overture_rays);
+        Ok(self.rays.iter().sum::<u64>() + self.light_rays + photon_rays + cache_rays)
     }
 
     fn strategy_images(&mut self) -> crate::Result<Option<StrategyImages>> {
@@ -558,6 +596,14 @@ impl Backend for CpuBackend<'_> {
 
     fn sppm_stats(&mut self) -> Option<SppmStats> {
         CpuBackend::sppm_stats(self)
+    }
+
+    fn irradiance_cache_stats(&mut self) -> Option<IrradianceCacheStats> {
+        CpuBackend::irradiance_cache_stats(self)
+    }
+
+    fn irradiance_record_pixels(&mut self) -> Option<Vec<(u32, u32)>> {
+        self.irradiance_cache.as_ref().map(|c| c.records().iter().map(|r| r.pixel).collect())
     }
 
     fn bdpt_stats(&mut self) -> Option<BdptStats> {

@@ -65,6 +65,10 @@ pub struct RenderMetadata {
     /// Adaptive sampling's settings, as `pathlight.adaptive` says them; the EXR then holds
     /// each pixel's sample count in channel `sampleCount`. `None`: every pixel has `spp()`.
     pub adaptive: Option<String>,
+    /// The irradiance cache's settings and records, as `pathlight.irradianceCache` says
+    /// them; the variance channels then measure the samples' noise given the cache.
+    /// `None`: none.
+    pub irradiance_cache: Option<String>,
 }
 
 impl RenderMetadata {
@@ -162,7 +166,12 @@ pub fn write_exr_with(film: &Film, meta: &RenderMetadata, extras: &ExrExtras, pa
     put("pathlight.spp", AttributeValue::I32(meta.spp() as i32));
     put("pathlight.seed", AttributeValue::Text(Text::from(meta.seed.to_string().as_str())));
     put("pathlight.integrator", AttributeValue::Text(Text::from(meta.integrator.name())));
-    put("pathlight.variance", AttributeValue::Text(Text::from(meta.integrator.variance_meaning())));
+    let variance_meaning = if meta.irradiance_cache.is_some() {
+        crate::integrator::irradiance_cache::VARIANCE_MEANING
+    } else {
+        meta.integrator.variance_meaning()
+    };
+    put("pathlight.variance", AttributeValue::Text(Text::from(variance_meaning)));
     put("pathlight.backend", AttributeValue::Text(Text::from(meta.backend.as_str())));
     put("pathlight.renderSeconds", AttributeValue::F64(meta.render_seconds));
     put(
@@ -192,6 +201,9 @@ pub fn write_exr_with(film: &Film, meta: &RenderMetadata, extras: &ExrExtras, pa
     }
     if let Some(adaptive) = &meta.adaptive {
         put("pathlight.adaptive", text(adaptive.clone()));
+    }
+    if let Some(cache) = &meta.irradiance_cache {
+        put("pathlight.irradianceCache", text(cache.clone()));
     }
     if let Some((_, denoiser)) = extras.denoised {
         put("pathlight.denoiser", text(denoiser.name().to_string()));

@@ -7,6 +7,7 @@
 //! | bidirectional path tracing, every strategy weighted by MIS | `bdpt` | [`bdpt`] | `shaders/bdpt.wgsl` |
 //! | stochastic progressive photon mapping (biased, consistent) | `sppm` | [`sppm`] | none yet: the GPU backend refuses it |
 //! | photon mapping: caustic and global maps, final gather (biased) | `photon` | [`photon`] | none yet: the GPU backend refuses it |
+//! | the path tracer with an irradiance cache for the first Lambertian vertex's indirect light (biased) | `path --irradiance-cache` | [`irradiance_cache`] | none yet: the GPU backend refuses it |
 //!
 //! What every integrator shares lives beside them, each with a WGSL twin of the same name:
 //! * [`interaction`]: the surface record built at every path vertex and the side test of a
@@ -29,6 +30,7 @@ pub mod aov;
 pub mod bdpt;
 pub mod delta_view;
 pub mod interaction;
+pub mod irradiance_cache;
 pub mod light_tracing;
 pub mod mis;
 pub mod partition;

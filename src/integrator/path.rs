@@ -15,6 +15,7 @@
 use glam::Vec3;
 
 use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
+use super::irradiance_cache::IrradianceCache;
 use super::mis::power_heuristic;
 use super::partition::caustic_is_light_traced;
 use super::roulette::{survival_probability, MAX_BOUNCES_GUARD, RR_ANY_BOUNCE_DEPTH};
@@ -41,9 +42,14 @@ use crate::scene::FlatScene;
 /// a fair share of a path but adds little of its variance, as in the Cornell boxes, whose
 /// noise is indirect light (`bench/history/splitting.md`). Continuation j draws its numbers from
 /// [`PathSampler::split`].
+///
+/// With an irradiance cache the Lambertian lobe's indirect light at the path's first
+/// Lambertian vertex comes from it ([`super::irradiance_cache`]); without one the path
+/// tracer is unchanged, bit for bit.
 pub fn radiance(
     scene: &FlatScene,
     settings: &IntegratorSettings,
+    cache: Option<&IrradianceCache>,
     ray: Ray,
     cone: RayCone,
     rng: &mut PathSampler,
@@ -53,15 +59,48 @@ pub fn radiance(
         ray,
         travelled: 0.0,
         beta: Vec3::ONE,
+        direct_only_beta: Vec3::ZERO,
         depth: 0,
         prev_delta: true,
         prev_pdf: 0.0,
         eta_scale: 1.0,
         non_delta_depth: 0,
         first_vertex_smooth: false,
+        cache_consulted: false,
     };
-    let tracer = Tracer { scene, settings, lights: scene.light_arrays() };
-    trace(&tracer, path, cone, rng, rays, settings.splits)
+    let tracer = Tracer { scene, settings, lights: scene.light_arrays(), cache };
+    trace(&tracer, path, cone, rng, rays, settings.splits).0
+}
+
+/// The radiance arriving along `ray` (unit direction, leaving a surface) less the emission
+/// of lights that next-event estimation samples where the ray first lands, and the
+/// distance to that first hit (infinite if it leaves the scene): one gather ray of an
+/// irradiance-cache record ([`super::irradiance_cache`]). From its first hit on, the path is
+/// the path tracer's, its next-event estimates included; its first hit weighs a sampled
+/// light's emission by the MIS weight of a strategy with no density, 0.
+pub(crate) fn indirect_radiance(
+    scene: &FlatScene,
+    settings: &IntegratorSettings,
+    ray: Ray,
+    cone: RayCone,
+    rng: &mut PathSampler,
+    rays: &mut u64,
+) -> (Vec3, f32) {
+    let path = PathState {
+        ray,
+        travelled: 0.0,
+        beta: Vec3::ONE,
+        direct_only_beta: Vec3::ZERO,
+        depth: 1,
+        prev_delta: false,
+        prev_pdf: 0.0,
+        eta_scale: 1.0,
+        non_delta_depth: 1,
+        first_vertex_smooth: true,
+        cache_consulted: true,
+    };
+    let tracer = Tracer { scene, settings, lights: scene.light_arrays(), cache: None };
+    trace(&tracer, path, cone, rng, rays, 1)
 }
 
 /// What every bounce of a camera sample reads: the scene, the settings, and the scene's
@@ -71,6 +110,7 @@ struct Tracer<'a> {
     scene: &'a FlatScene,
     settings: &'a IntegratorSettings,
     lights: LightArrays<'a>,
+    cache: Option<&'a IrradianceCache>,
 }
 
 /// A path between bounces: what the next bounce needs of the ones before it (WGSL twin:
@@ -83,6 +123,10 @@ struct PathState {
     travelled: f32,
     /// Throughput.
     beta: Vec3,
+    /// Throughput for the sampled lights' emission at the next hit only: the Lambertian
+    /// lobe's share of the last BSDF sample where an irradiance cache gave that lobe's
+    /// indirect light (zero otherwise).
+    direct_only_beta: Vec3,
     /// Scattering events so far (0 for the camera ray).
     depth: u32,
     /// Did the last scattering sample a delta lobe (or is this the camera ray)?
@@ -97,6 +141,8 @@ struct PathState {
     /// Did the first vertex scatter by a non-delta lobe? (The light tracer's half of path
     /// space, `IntegratorSettings::caustics_by_light_tracing`, needs it.)
     first_vertex_smooth: bool,
+    /// Has the path passed its first Lambertian vertex, where a cache is consulted once?
+    cache_consulted: bool,
 }
 
 /// How a path goes on after [`scatter`].
@@ -110,8 +156,9 @@ enum Scatter {
     Poison,
 }
 
-/// Traces `path` to its end, adding the radiance it gathers; with `splits` > 1 it is split
-/// at its first vertex with a non-delta lobe ([`radiance`]).
+/// Traces `path` to its end, adding the radiance it gathers, and returns it with the length
+/// of the path's first segment; with `splits` > 1 it is split at its first vertex with a
+/// non-delta lobe ([`radiance`]).
 fn trace(
     tracer: &Tracer,
     mut path: PathState,
@@ -119,15 +166,18 @@ fn trace(
     rng: &mut PathSampler,
     rays: &mut u64,
     splits: u32,
-) -> Vec3 {
+) -> (Vec3, f32) {
     let (scene, settings) = (tracer.scene, tracer.settings);
     let mut l = Vec3::ZERO;
+    let mut first_distance = None;
     loop {
         *rays += 1;
         // Scenes with alpha-tested materials draw one number per traversal for stochastic
         // transparency; others draw none, keeping their random streams.
         let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
-        let Some(hit) = scene.intersect_closest(&path.ray, alpha_seed) else {
+        let hit = scene.intersect_closest(&path.ray, alpha_seed);
+        first_distance.get_or_insert(hit.as_ref().map_or(f32::INFINITY, |h| h.hit.t));
+        let Some(hit) = hit else {
             // The ray leaves the scene: the environment's radiance, MIS-weighted against
             // next-event estimation when NEE could have sampled this direction.
             let env = &scene.environment;
@@ -137,7 +187,7 @@ fn trace(
                     l += path.beta * le;
                 } else {
                     let light_pdf = scene.lights[env.params.light_index as usize].pmf * pdf_solid_angle;
-                    l += path.beta * le * power_heuristic(path.prev_pdf, light_pdf);
+                    l += (path.beta + path.direct_only_beta) * le * power_heuristic(path.prev_pdf, light_pdf);
                 }
             }
             break;
@@ -159,7 +209,9 @@ fn trace(
         // requires).
         if material.flags & MATERIAL_VOLUME != 0 && !si.front_face {
             let sigma = Vec3::from(material.attenuation_coefficient);
-            path.beta *= (-sigma * si.distance).exp();
+            let transmittance = (-sigma * si.distance).exp();
+            path.beta *= transmittance;
+            path.direct_only_beta *= transmittance;
         }
 
         // Emission, one-sided unless the material is double-sided. Counted in full it is read
@@ -180,7 +232,17 @@ fn trace(
                 let b = Vec3::new(hit.hit.b0, hit.hit.b1, hit.hit.b2);
                 let emission =
                     emitted_radiance(&scene.texture_arrays(), untextured, hit.triangle as usize, b);
-                l += path.beta * emission * power_heuristic(path.prev_pdf, light_pdf);
+                l += (path.beta + path.direct_only_beta)
+                    * emission
+                    * power_heuristic(path.prev_pdf, light_pdf);
+            }
+        }
+        if path.direct_only_beta != Vec3::ZERO {
+            // The cache had the Lambertian lobe's light from here on; what other lobes
+            // sent this way goes on.
+            path.direct_only_beta = Vec3::ZERO;
+            if path.beta == Vec3::ZERO {
+                break;
             }
         }
 
@@ -189,6 +251,16 @@ fn trace(
         }
         let bsdf = GltfBsdf::new(material, si.wo, si.front_face, si.coat_normal);
         l += next_event(scene, tracer.lights, &si, &bsdf, path.beta, rng, rays);
+        let mut cached_lambert = false;
+        if let Some(cache) = tracer.cache {
+            if !path.cache_consulted && path.non_delta_depth == 0 && bsdf.has_lambert_lobe() {
+                path.cache_consulted = true;
+                if let Some(e) = cache.lookup(si.p, si.frame.z) {
+                    l += path.beta * bsdf.diffuse_albedo(si.wo) * e * std::f32::consts::FRAC_1_PI;
+                    cached_lambert = true;
+                }
+            }
+        }
 
         if splits > 1 && bsdf.has_non_delta() {
             // The continuations, each from a copy of the path and its own numbers. A poisoned
@@ -197,27 +269,32 @@ fn trace(
             for j in 0..splits {
                 let mut continuation = path;
                 let mut rng = rng.split(j, splits);
-                match scatter(settings, &si, &bsdf, &mut continuation, &mut rng) {
+                match scatter(settings, &si, &bsdf, &mut continuation, &mut rng, cached_lambert) {
                     Scatter::Continue => {
-                        let lj = trace(tracer, continuation, cone, &mut rng, rays, 1);
+                        let (lj, _) = trace(tracer, continuation, cone, &mut rng, rays, 1);
                         if lj.is_nan() {
-                            return lj;
+                            return (lj, first_distance.unwrap_or(f32::INFINITY));
                         }
                         sum += lj;
                     }
                     Scatter::End => {}
-                    Scatter::Poison => return Vec3::splat(f32::NAN),
+                    Scatter::Poison => {
+                        return (Vec3::splat(f32::NAN), first_distance.unwrap_or(f32::INFINITY))
+                    }
                 }
             }
-            return l + sum / splits as f32;
+            return (l + sum / splits as f32, first_distance.unwrap_or(f32::INFINITY));
         }
-        match scatter(settings, &si, &bsdf, &mut path, rng) {
+        match scatter(settings, &si, &bsdf, &mut path, rng, cached_lambert) {
             Scatter::Continue => {}
             Scatter::End => break,
-            Scatter::Poison => return Vec3::splat(f32::NAN),
+            Scatter::Poison => {
+                l = Vec3::splat(f32::NAN);
+                break;
+            }
         }
     }
-    l
+    (l, first_distance.unwrap_or(f32::INFINITY))
 }
 
 /// Next-event estimation at `si`: one light sample, MIS-weighted against the BSDF's
@@ -260,7 +337,10 @@ pub(crate) fn next_event(
     }
 }
 
-/// Continues `path` from `si` by sampling the BSDF, then plays Russian roulette.
+/// Continues `path` from `si` by sampling the BSDF, then plays Russian roulette. With
+/// `cached_lambert` (an irradiance cache gave the Lambertian lobe's indirect light here) the
+/// Lambertian lobe's share of the sample's weight, f_d cos θ / pdf, carries only the sampled
+/// lights' emission at the next hit ([`PathState::direct_only_beta`]).
 #[inline(always)]
 fn scatter(
     settings: &IntegratorSettings,
@@ -268,6 +348,7 @@ fn scatter(
     bsdf: &GltfBsdf,
     path: &mut PathState,
     rng: &mut PathSampler,
+    cached_lambert: bool,
 ) -> Scatter {
     // The lobe-choice number is a dimension of the stream whether or not the BSDF reads it
     // (the kernel always draws it).
@@ -283,8 +364,14 @@ fn scatter(
     if !sides_agree(si, wi_world, bs.wi) {
         return Scatter::End;
     }
-    path.beta *= bs.weight;
-    if !path.beta.is_finite() {
+    if cached_lambert && !bs.is_delta {
+        let lambert = (bsdf.eval_diffuse(si.wo, bs.wi) * (bs.wi.z.abs() / bs.pdf_solid_angle)).min(bs.weight);
+        path.direct_only_beta = path.beta * lambert;
+        path.beta *= (bs.weight - lambert).max(Vec3::ZERO);
+    } else {
+        path.beta *= bs.weight;
+    }
+    if !path.beta.is_finite() || !path.direct_only_beta.is_finite() {
         // Checked here, before roulette, so roulette only ever sees a finite throughput.
         return Scatter::Poison;
     }
@@ -303,11 +390,12 @@ fn scatter(
         path.non_delta_depth += 1;
     }
     if path.non_delta_depth >= settings.rr_min_depth || path.depth >= RR_ANY_BOUNCE_DEPTH {
-        let q = survival_probability(path.beta, path.eta_scale);
+        let q = survival_probability(path.beta + path.direct_only_beta, path.eta_scale);
         if q <= 0.0 || rng.next_1d() >= q {
             return Scatter::End;
         }
         path.beta /= q;
+        path.direct_only_beta /= q;
     }
     Scatter::Continue
 }

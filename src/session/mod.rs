@@ -112,6 +112,8 @@ pub struct SessionOptions {
     pub caustic_photons: Option<u32>,
     /// `RenderSettings::gather_photons` (`--gather-photons`).
     pub gather_photons: Option<u32>,
+    /// `RenderSettings::irradiance_cache` (`--irradiance-cache`).
+    pub irradiance_cache: Option<crate::integrator::irradiance_cache::IrradianceCacheSettings>,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
     pub device: Option<String>,
@@ -150,6 +152,7 @@ impl SessionOptions {
             sppm_radius: None,
             caustic_photons: None,
             gather_photons: None,
+            irradiance_cache: None,
             backend: BackendChoice::Auto,
             device: None,
             outputs: OutputOptions::default(),
@@ -208,6 +211,10 @@ fn make_backend(
     gpu: Option<&Arc<GpuContext>>,
 ) -> Result<OpenedBackend> {
     Ok(match gpu {
+        Some(_) if settings.irradiance_cache.is_some() => return Err(Error::Settings(
+            "--irradiance-cache: the GPU backend has no irradiance cache yet; render it with --backend cpu"
+                .into(),
+        )),
         Some(ctx) => {
             let backend = GpuBackend::new(ctx.clone(), flat, settings)?;
             let film = backend.film_buffer().clone();
@@ -282,6 +289,7 @@ impl Session {
             sppm_radius: options.sppm_radius,
             caustic_photons: options.caustic_photons,
             gather_photons: options.gather_photons,
+            irradiance_cache: options.irradiance_cache,
             aovs: options.outputs.needs_aovs() || options.aovs_available,
             adaptive: options.adaptive.is_some(),
             ..RenderSettings::default()
@@ -329,6 +337,13 @@ impl Session {
                 );
                 BackendChoice::Cpu
             }
+            (BackendChoice::Auto, None) if options.irradiance_cache.is_some() => {
+                backend_note = Some(
+                    "backend auto: the GPU backend has no irradiance cache yet; rendering on the CPU backend"
+                        .to_string(),
+                );
+                BackendChoice::Cpu
+            }
             (BackendChoice::Auto, None) if !options.integrator.has_gpu_kernel() => {
                 backend_note = Some(format!(
                     "backend auto: the GPU backend has no {} kernel yet; rendering on the CPU backend",
@@ -358,6 +373,11 @@ impl Session {
             },
             (other, _) => other,
         };
+        if choice == BackendChoice::Gpu && options.irradiance_cache.is_some() {
+            return Err(Error::Settings(
+                "--irradiance-cache: the GPU backend has no irradiance cache yet; render it with --backend cpu".into(),
+            ));
+        }
         let gpu = match choice {
             BackendChoice::Gpu => Some(match gpu {
                 Some(ctx) => ctx,
@@ -366,7 +386,10 @@ impl Session {
             _ => None,
         };
         let device = crate::render::RenderDevice::of(gpu.as_deref());
-        settings.splits = options.splits.unwrap_or(crate::render::default_splits(device));
+        // The irradiance cache takes the place of the splits at the first vertex.
+        let default_splits =
+            if settings.irradiance_cache.is_some() { 1 } else { crate::render::default_splits(device) };
+        settings.splits = options.splits.unwrap_or(default_splits);
         settings.light_tracing = options.light_tracing;
         let (backend, gpu_film, backend_detail) = make_backend(&flat, &settings, gpu.as_ref())?;
         Ok(Session {
@@ -631,6 +654,19 @@ impl Session {
         self.backend.sppm_stats()
     }
 
+    /// What placing the irradiance cache counted (`None` without one).
+    pub fn irradiance_cache_stats(
+        &mut self,
+    ) -> Option<crate::integrator::irradiance_cache::IrradianceCacheStats> {
+        self.backend.irradiance_cache_stats()
+    }
+
+    /// The pixels whose camera paths placed the irradiance cache's records (`None` without
+    /// one).
+    pub fn irradiance_record_pixels(&mut self) -> Option<Vec<(u32, u32)>> {
+        self.backend.irradiance_record_pixels()
+    }
+
     /// Forgets every sample (the camera or the scene changed).
     pub fn restart(&mut self) -> Result<()> {
         self.backend.reset()?;
@@ -651,7 +687,18 @@ impl Session {
     /// What an EXR records about this render.
     pub fn metadata(&mut self) -> Result<RenderMetadata> {
         let rejected = self.backend.film()?.total_rejected();
+        let cache_stats = self.backend.irradiance_cache_stats();
         Ok(RenderMetadata {
+            irradiance_cache: self.settings.irradiance_cache.map(|c| {
+                let (m, n) = crate::integrator::irradiance_cache::gather_strata(c.gather_rays);
+                format!(
+                    "accuracy {}, {} gather rays per round ({m} × {n} strata), gradients {}, {} records",
+                    c.accuracy,
+                    m * n,
+                    if c.gradients { "on" } else { "off" },
+                    cache_stats.map_or(0, |s| s.records)
+                )
+            }),
             scene: self.source.display().to_string(),
             backend: self.backend.name(),
             samples: self.first_sample..self.spp_done,
