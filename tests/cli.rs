@@ -132,6 +132,48 @@ fn photon_mapping_renders_say_what_their_variance_means() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--irradiance-cache` renders from the command line (on the CPU backend under `auto`),
+/// reports its records, says in the EXR what the cache was and what the variance measures,
+/// and `--ic-show-records` marks one red pixel per record.
+#[test]
+fn irradiance_cache_renders_report_and_show_their_records() {
+    let dir = temp_dir("irradiance-cache");
+    let scene = common::scene("cornell-box.gltf");
+    let (exr, png) = (dir.join("cached.exr"), dir.join("records.png"));
+    let out = pathlight()
+        .args(["render", scene.to_str().unwrap(), "--irradiance-cache", "--spp", "2", "--width", "48"])
+        .arg("-o")
+        .arg(&exr)
+        .arg("--ic-show-records")
+        .arg(&png)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("rendering on the CPU backend"), "{stderr}");
+    let records: usize = stderr
+        .split("irradiance cache: ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no record count in: {stderr}"));
+    assert!(records > 0, "{stderr}");
+    let image = pathlight::film::read_exr(&exr).unwrap();
+    assert!(
+        image.attributes["pathlight.variance"].contains("given the irradiance cache"),
+        "{:?}",
+        image.attributes
+    );
+    let cache = &image.attributes["pathlight.irradianceCache"];
+    assert!(cache.contains("accuracy 1") && cache.contains(&format!("{records} records")), "{cache}");
+    let marked = pathlight::film::LinearImage::read(&png).unwrap();
+    // The marker is pure red after the sRGB curve; the darkened image never is.
+    let red = marked.rgb.iter().filter(|c| c[0] > 0.99 && c[1] == 0.0 && c[2] == 0.0).count();
+    // The overture visits each pixel once and places at most one record there.
+    assert_eq!(red, records, "red pixels in {}", png.display());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bad_input_gets_a_clear_error() {
     let dir = temp_dir("errors");

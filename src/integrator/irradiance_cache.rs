@@ -389,10 +389,18 @@ impl IrradianceCache {
             stride /= 2;
         }
         cache.stats.records = cache.records.len();
-        cache.stats.bytes = cache.records.len() * (std::mem::size_of::<IrradianceRecord>() + 2 * 4)
-            + cache.grid.cells.len() * (16 + std::mem::size_of::<Vec<u32>>());
+        cache.stats.bytes = cache.memory_bytes();
         cache.stats.seconds = start.elapsed().as_secs_f64();
         cache
+    }
+
+    /// Bytes held: the records, and the grid's cells (key, list header, indices) and
+    /// per-level lists.
+    fn memory_bytes(&self) -> usize {
+        let cell = std::mem::size_of::<[i32; 4]>() + std::mem::size_of::<Vec<u32>>();
+        self.records.capacity() * std::mem::size_of::<IrradianceRecord>()
+            + self.grid.cells.values().map(|v| cell + 4 * v.capacity()).sum::<usize>()
+            + self.grid.levels.iter().map(|(_, v)| 4 * v.capacity()).sum::<usize>()
     }
 
     /// One phase of the overture: the pixels' first Lambertian vertices, a record computed
