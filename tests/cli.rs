@@ -171,6 +171,31 @@ fn irradiance_cache_renders_report_and_show_their_records() {
     let red = marked.rgb.iter().filter(|c| c[0] > 0.99 && c[1] == 0.0 && c[2] == 0.0).count();
     // The overture visits each pixel once and places at most one record there.
     assert_eq!(red, records, "red pixels in {}", png.display());
+
+    // Parts of a render place the same records (they depend on the seed and the camera
+    // alone), so its shards merge to the whole render, and the merge still says what the
+    // cache was.
+    let parts: Vec<_> = (0..2).map(|i| dir.join(format!("part{i}.exr"))).collect();
+    for (i, part) in parts.iter().enumerate() {
+        let o = pathlight()
+            .args(["render", scene.to_str().unwrap(), "--irradiance-cache", "--spp", "2", "--width", "48"])
+            .args(["--shard", &format!("{i}/2"), "-o"])
+            .arg(part)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let merged = dir.join("merged.exr");
+    let o = pathlight().arg("merge").args(&parts).arg("-o").arg(&merged).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let merged = pathlight::film::read_exr(&merged).unwrap();
+    assert_eq!(merged.attributes["pathlight.irradianceCache"], *cache);
+    for c in ["R", "G", "B"] {
+        for (a, b) in merged.channels[c].iter().zip(&image.channels[c]) {
+            // The merge combines the parts' running statistics: the same mean up to rounding.
+            assert!((a - b).abs() <= 1e-5 * b.abs().max(1e-3), "{c}: merged {a}, whole {b}");
+        }
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
