@@ -17,7 +17,10 @@ that differ from pathlight's):
   * the integrator with `maxdepth` 100 (pbrt's default is 5; pathlight's is unlimited with
     roulette, and in these scenes a path of more than 100 bounces carries < 0.75¹⁰⁰ of its
     start);
-  * `Sampler "zsobol"`, pbrt's default, Owen-scrambled Sobol points as pathlight's default.
+  * `Sampler "zsobol"`, pbrt's default, Owen-scrambled Sobol points as pathlight's default;
+  * for `sppm`, the initial radius pathlight's default gives (three pixel footprints at the
+    scene's centroid) instead of pbrt's 1 world unit; photons per iteration stay pbrt's
+    default, one per pixel, as pathlight's.
 
 Materials, each to the pbrt material whose model is pathlight's for that case (anything
 else is refused): Lambertian -> `diffuse` (pbrt's BSDFs reflect on both sides, as
@@ -76,6 +79,21 @@ def shapes(doc, buffers, transform, white_override, out):
         out.append("AttributeEnd")
 
 
+def sppm_radius(args, doc, buffers, eye, forward, fov):
+    """For pbrt's `sppm`, its initial photon radius as pathlight's default sets it: three
+    pixel footprints (`DEFAULT_SPPM_RADIUS_PIXELS` in src/integrator/sppm.rs), taken here at
+    the scene's centroid (pathlight takes it per pixel; pbrt has one radius for the image).
+    pbrt's own default is 1 world unit, the whole of a unit Cornell box. Other integrators:
+    nothing."""
+    if args.integrator != "sppm":
+        return ""
+    points = np.concatenate([positions for _, positions, _, _, _ in triangle_meshes(doc, buffers, np.eye(4))])
+    depth = float(np.dot(points.mean(axis=0) - eye, forward / np.linalg.norm(forward)))
+    shorter = min(args.width, args.height)
+    footprint = 2.0 * math.tan(fov / 2.0) * depth / shorter
+    return f' "float radius" [{3.0 * footprint:.6g}]'
+
+
 def convert(args):
     doc, buffers = read_gltf(args.scene)
     perspective, eye, forward, up = camera_frame(doc)
@@ -92,7 +110,7 @@ def convert(args):
         'PixelFilter "box" "float xradius" [0.5] "float yradius" [0.5]',
         f'Film "rgb" "integer xresolution" [{args.width}] "integer yresolution" [{args.height}] '
         '"bool savefp16" false "string filename" ["pbrt.exr"]',
-        f'Integrator "{args.integrator}" "integer maxdepth" [{MAX_DEPTH}]',
+        f'Integrator "{args.integrator}" "integer maxdepth" [{MAX_DEPTH}]{sppm_radius(args, doc, buffers, eye, forward, fov)}',
         "WorldBegin",
     ]
     shapes(doc, buffers, np.eye(4), None, out)

@@ -43,6 +43,14 @@
 // every pixel.
 @group(0) @binding(22) var<storage, read> sample_budgets: array<u32>;
 
+// The path tracer's irradiance cache (src/integrator/irradiance_cache.rs, placed on the
+// host): its records, its hash table of grid cells, and `ic_indices`, which holds the
+// number of grid levels L, the L levels, then each cell's run of record indices. Without a
+// cache one unused element each (L = 0).
+@group(0) @binding(24) var<storage, read> ic_records: array<IrradianceRecordGpu>;
+@group(0) @binding(25) var<storage, read> ic_cells: array<IrradianceCell>;
+@group(0) @binding(26) var<storage, read> ic_indices: array<u32>;
+
 fn sample_budget(pixel: u32) -> u32 {
     return sample_budgets[min(pixel, arrayLength(&sample_budgets) - 1u)];
 }

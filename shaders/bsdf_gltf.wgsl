@@ -189,6 +189,51 @@ fn has_non_delta(b: GltfBsdf) -> bool {
         || (b.p_reflect > 0.0 && b.alpha > 0.0) || (b.p_transmit > 0.0 && !b.transmission_is_delta);
 }
 
+// Twin of `has_lambert_lobe`.
+fn has_lambert_lobe(b: GltfBsdf) -> bool {
+    return b.p_diffuse > 0.0;
+}
+
+// Twin of `eval_diffuse`: the Lambertian lobe's share of the BSDF, without the cosine.
+fn gltf_bsdf_eval_diffuse(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    if (wo.z <= 0.0 || wi.z <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    if (b.lambertian) {
+        return b.base_color * lambert_eval(wi);
+    }
+    if (b.p_diffuse <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let h = reflection_half_vector(wo, wi);
+    if (h.w == 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let fd = dielectric_fresnel(b, dot(wo, h.xyz));
+    let diffuse = b.base_color * (1.0 - b.transmission) * lambert_eval(wi);
+    let base = (1.0 - b.metallic) * (1.0 - max_element(fd)) * diffuse;
+    return base * (b.coat_transmittance * sheen_scaling(b, wo.z, wi.z));
+}
+
+// Twin of `diffuse_albedo`: the Lambertian lobe's directional albedo, by the same 4 × 4
+// stratified cosine quadrature.
+fn gltf_bsdf_diffuse_albedo(b: GltfBsdf, wo: vec3<f32>) -> vec3<f32> {
+    if (b.lambertian) {
+        return select(vec3<f32>(0.0), b.base_color, wo.z > 0.0);
+    }
+    if (b.p_diffuse <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < 4u; i += 1u) {
+        for (var j = 0u; j < 4u; j += 1u) {
+            let u = vec2<f32>((f32(i) + 0.5) / 4.0, (f32(j) + 0.5) / 4.0);
+            sum += gltf_bsdf_eval_diffuse(b, wo, lambert_sample(u)) * PI;
+        }
+    }
+    return sum / 16.0;
+}
+
 fn gltf_bsdf_eval(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     if (wo.z <= 0.0) {
         return vec3<f32>(0.0);

@@ -143,9 +143,28 @@ struct FrameParams {
     scene_center: vec3<f32>,
     scene_radius: f32,
     light_paths: u32,
+    ic_normal_scale: f32,
+    ic_gradients: u32,
+    ic_table_mask: u32,
+}
+
+struct IrradianceRecordGpu {
+    p: vec3<f32>,
+    radius: f32,
+    n: vec3<f32>,
+    _pad0: u32,
+    e: vec3<f32>,
+    _pad1: u32,
+    rotational: array<vec4<f32>, 3>,
+    translational: array<vec4<f32>, 3>,
+}
+
+struct IrradianceCell {
+    key: vec4<i32>,
+    start: u32,
+    count: u32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 struct FilmPixel {

@@ -23,6 +23,12 @@ struct PathState {
     // Did the first vertex scatter by a non-delta lobe? (The light tracer's half of path
     // space, `frame.light_traced_caustics`, needs it.)
     first_vertex_smooth: bool,
+    // Throughput for the sampled lights' emission at the next hit only: the Lambertian
+    // lobe's share of the last BSDF sample where the irradiance cache gave that lobe's
+    // indirect light (the CPU twin explains).
+    direct_only_beta: vec3<f32>,
+    // Has the path passed its first Lambertian vertex, where the cache is consulted once?
+    cache_consulted: bool,
 }
 
 // Where a split sample's continuations start (the CPU twin's `radiance` explains
@@ -92,7 +98,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (start_path) {
             sampler_start(frame.sampler_kind, x, y, frame.sample_offset + k, frame.seed);
             let camera_ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
-            path = PathState(camera_ray, 0.0, vec3<f32>(1.0), 0u, true, 0.0, 1.0, 0u, false);
+            path = PathState(camera_ray, 0.0, vec3<f32>(1.0), 0u, true, 0.0, 1.0, 0u, false, vec3<f32>(0.0), false);
             l = vec3<f32>(0.0);
             poisoned = false;
             split = false;
@@ -125,7 +131,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                             l += path.beta * env.radiance;
                         } else {
                             let light_pdf = lights[environment.light_index].pmf * env.pdf_solid_angle;
-                            l += path.beta * env.radiance * power_heuristic(path.prev_pdf, light_pdf);
+                            l += (path.beta + path.direct_only_beta) * env.radiance * power_heuristic(path.prev_pdf, light_pdf);
                         }
                     }
                     break;
@@ -136,11 +142,14 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
             let untextured = materials[si.material];
             let material = textured_material(untextured, si.uv, si.lod);
             let bsdf = gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal);
+            var cached_lambert = false;
             if (!resuming) {
                 path.travelled += si.distance;
 
                 if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
-                    path.beta *= exp(-material.attenuation_coefficient * si.distance);
+                    let transmittance = exp(-material.attenuation_coefficient * si.distance);
+                    path.beta *= transmittance;
+                    path.direct_only_beta *= transmittance;
                 }
 
                 // Full weight: the cone's level of detail; weighted against light sampling: level 0,
@@ -156,7 +165,15 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                         }
                     } else {
                         let light_pdf = triangle_light_pdf(lights[si.emitter], path.ray.origin, si.p);
-                        l += path.beta * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(path.prev_pdf, light_pdf);
+                        l += (path.beta + path.direct_only_beta) * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(path.prev_pdf, light_pdf);
+                    }
+                }
+                if (IRRADIANCE_CACHE && any(path.direct_only_beta != vec3<f32>(0.0))) {
+                    // The cache had the Lambertian lobe's light from here on; what other
+                    // lobes sent this way goes on.
+                    path.direct_only_beta = vec3<f32>(0.0);
+                    if (all(path.beta == vec3<f32>(0.0))) {
+                        break;
                     }
                 }
 
@@ -164,6 +181,16 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                     break;
                 }
                 l += next_event(si, bsdf, path.beta);
+                if (IRRADIANCE_CACHE && !path.cache_consulted && path.non_delta_depth == 0u && has_lambert_lobe(bsdf)) {
+                    // The Lambertian lobe's indirect light from the cache (the CPU twin's
+                    // `trace` explains).
+                    path.cache_consulted = true;
+                    let cached = ic_lookup(si.p, si.frame.z);
+                    if (cached.w > 0.0) {
+                        l += path.beta * gltf_bsdf_diffuse_albedo(bsdf, si.wo) * cached.xyz * INV_PI;
+                        cached_lambert = true;
+                    }
+                }
 
                 if (SPLITTING && frame.splits > 1u && !split && has_non_delta(bsdf)) {
                     // Split here: the prefix's radiance is kept, and continuation 0 goes on.
@@ -187,8 +214,14 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (!sides_agree(si, wi_world, bs.wi)) {
                 break;
             }
-            path.beta *= bs.weight;
-            if (!is_finite_vec3(path.beta)) {
+            if (IRRADIANCE_CACHE && cached_lambert && !bs.is_delta) {
+                let lambert = min(gltf_bsdf_eval_diffuse(bsdf, si.wo, bs.wi) * (abs(bs.wi.z) / bs.pdf_solid_angle), bs.weight);
+                path.direct_only_beta = path.beta * lambert;
+                path.beta *= max(bs.weight - lambert, vec3<f32>(0.0));
+            } else {
+                path.beta *= bs.weight;
+            }
+            if (!is_finite_vec3(path.beta) || !is_finite_vec3(path.direct_only_beta)) {
                 poisoned = true;
                 break;
             }
@@ -205,11 +238,12 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                 path.non_delta_depth += 1u;
             }
             if (path.non_delta_depth >= frame.rr_min_depth || path.depth >= RR_ANY_BOUNCE_DEPTH) {
-                let q = survival_probability(path.beta, path.eta_scale);
+                let q = survival_probability(path.beta + path.direct_only_beta, path.eta_scale);
                 if (q <= 0.0 || rng_next_1d() >= q) {
                     break;
                 }
                 path.beta /= q;
+                path.direct_only_beta /= q;
             }
             path_ended = false;
             break;

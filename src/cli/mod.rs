@@ -118,7 +118,8 @@ pub struct SceneArgs {
     pub sppm_radius: Option<f32>,
     /// With --integrator path: give the first diffuse vertex's indirect light from an
     /// irradiance cache (records placed before the render, interpolated with gradients):
-    /// biased, smooth long before path tracing stops being noisy. CPU backend only so far.
+    /// biased, smooth long before path tracing stops being noisy. Records are placed on the
+    /// host for either backend.
     #[arg(long)]
     pub irradiance_cache: bool,
     /// With --irradiance-cache: each record's validity radius is this times its radius (the

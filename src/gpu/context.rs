@@ -90,6 +90,9 @@ pub struct KernelKey {
     /// image must not depend on it).
     pub short_stack_limit: u32,
     pub tables: UniformTables,
+    /// Does the path tracer read an irradiance cache (`RenderSettings::irradiance_cache`)?
+    /// Built without, its lookup folds away.
+    pub irradiance_cache: bool,
 }
 
 impl KernelKey {
@@ -102,6 +105,7 @@ impl KernelKey {
             splitting,
             short_stack_limit: crate::bvh::SHORT_STACK_SIZE as u32,
             tables: UniformTables::default(),
+            irradiance_cache: false,
         }
     }
 }
@@ -129,10 +133,10 @@ pub(crate) struct KernelModule {
     pipeline_layout: wgpu::PipelineLayout,
 }
 
-/// The kernel's bindings, 0 to 23 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs,
+/// The kernel's bindings, 0 to 26 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs,
 /// 20, `bdpt_state` in shaders/bdpt.wgsl, which only that kernel declares, and 21 and 23,
-/// `aovs` and `aov_refine_list` in shaders/aov.wgsl).
-const KERNEL_BINDINGS: u32 = 24;
+/// `aovs` and `aov_refine_list` in shaders/aov.wgsl; 24 to 26 the irradiance cache).
+const KERNEL_BINDINGS: u32 = 27;
 
 /// The AOV passes' pipelines (shaders/aov.wgsl): the first pass over bands of the image, and
 /// the refinement of a list of pixels.
@@ -317,6 +321,7 @@ impl GpuContext {
     pub fn kernel_key(&self, scene: &FlatScene, settings: &crate::RenderSettings) -> KernelKey {
         KernelKey {
             tables: self.tables_for(scene),
+            irradiance_cache: settings.irradiance_cache.is_some(),
             ..KernelKey::new(settings.integrator, scene.features, settings.splitting())
         }
     }
@@ -340,6 +345,10 @@ impl GpuContext {
         let mut constants = feature_constants(key.features);
         constants.push(("SHORT_STACK_LIMIT", key.short_stack_limit as f64));
         constants.push(("SPLITTING", if key.splitting { 1.0 } else { 0.0 }));
+        if key.integrator == Integrator::Path {
+            // Declared by the path tracer's files only (shaders/irradiance_cache.wgsl).
+            constants.push(("IRRADIANCE_CACHE", if key.irradiance_cache { 1.0 } else { 0.0 }));
+        }
         let (render, build_seconds) = self.build_pipeline(&source, "render", &constants)?;
         let (first_hit, _) = self.build_pipeline(&source, "first_hit", &constants)?;
         let resolve = match key.integrator {

@@ -51,6 +51,16 @@ pub struct GpuBackend {
     ctx: Arc<GpuContext>,
     kernel: Arc<Kernel>,
     bind_group: wgpu::BindGroup,
+    /// The buffers of `bind_group`, binding i the i-th: the irradiance cache's (24 to 26)
+    /// are replaced when a cache is placed, and the group made again.
+    bind_buffers: Vec<wgpu::Buffer>,
+    /// `FrameParams`' irradiance-cache fields: normal scale, gradients, table mask.
+    ic_frame: (f32, u32, u32),
+    /// The scene, kept where the settings ask for an irradiance cache: its records are
+    /// placed on the host, again for each camera.
+    ic_scene: Option<crate::scene::FlatScene>,
+    /// The irradiance cache placed for the current camera (its statistics and records).
+    irradiance_cache: Option<crate::integrator::irradiance_cache::IrradianceCache>,
     params: wgpu::Buffer,
     film: wgpu::Buffer,
     first_hits: wgpu::Buffer,
@@ -267,7 +277,9 @@ impl GpuBackend {
         });
         // Light tracing as the CPU backend decides it (`CpuBackend::light_traces_caustics`).
         let bdpt = settings.integrator == Integrator::Bdpt;
+        // Under an irradiance cache the gathers see the caustics themselves (as on the CPU).
         let caustics_kernel = if settings.integrator == Integrator::Path
+            && settings.irradiance_cache.is_none()
             && settings.light_tracing
             && crate::integrator::scene_supports_light_tracing(scene)
         {
@@ -295,6 +307,19 @@ impl GpuBackend {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("out of GPU memory uploading the scene: {e}")));
         }
+        // The irradiance cache's records, cells and indices: one unused element each until a
+        // cache is placed (`ensure_irradiance_cache` binds its own).
+        let ic_records = storage(
+            "irradiance records",
+            bytemuck::bytes_of(&crate::scene::layout::IrradianceRecordGpu::default()),
+            read_only,
+        )?;
+        let ic_cells = storage(
+            "irradiance cells",
+            bytemuck::bytes_of(&crate::scene::layout::IrradianceCell::default()),
+            read_only,
+        )?;
+        let ic_indices = storage("irradiance indices", bytemuck::bytes_of(&0u32), read_only)?;
         let buffers = [
             &nodes,
             &triangles,
@@ -320,17 +345,12 @@ impl GpuBackend {
             &aovs,
             &budgets,
             &aov_refine_list,
+            &ic_records,
+            &ic_cells,
+            &ic_indices,
         ];
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
-            .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pathlight scene"),
-            layout: &kernel.source.bind_group_layout,
-            entries: &entries,
-        });
+        let bind_buffers: Vec<wgpu::Buffer> = buffers.iter().map(|b| (*b).clone()).collect();
+        let bind_group = Self::make_bind_group(device, &kernel, &bind_buffers);
         ctx.check()?;
         Ok(GpuBackend {
             kernel,
@@ -362,8 +382,84 @@ impl GpuBackend {
             scene_radius: scene.scene_radius,
             caustics_kernel,
             caustic_pass: None,
+            bind_buffers,
+            ic_frame: (0.0, 0, 0),
+            ic_scene: settings.irradiance_cache.is_some().then(|| scene.clone()),
+            irradiance_cache: None,
             ctx,
         })
+    }
+
+    /// The kernel's bind group over `buffers`, binding i the i-th.
+    fn make_bind_group(device: &wgpu::Device, kernel: &Kernel, buffers: &[wgpu::Buffer]) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+            .collect();
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pathlight scene"),
+            layout: &kernel.source.bind_group_layout,
+            entries: &entries,
+        })
+    }
+
+    /// The irradiance cache for the current camera, placed on the host as the CPU backend
+    /// places it (the same records for a seed) and bound, if the settings ask for one and it
+    /// is not yet.
+    fn ensure_irradiance_cache(&mut self) -> Result<()> {
+        let (Some(settings), Some(scene)) = (self.settings.irradiance_cache, self.ic_scene.as_ref()) else {
+            return Ok(());
+        };
+        if self.irradiance_cache.is_some() {
+            return Ok(());
+        }
+        let s = &self.settings;
+        // The path tracer's settings as the CPU backend gives them to the gathers.
+        let integrator = crate::integrator::IntegratorSettings {
+            max_depth: s.max_depth.unwrap_or(u32::MAX),
+            rr_min_depth: s.rr_min_depth,
+            splits: s.splits,
+            caustics_by_light_tracing: false,
+            only_strategy: None,
+            camera_connections: true,
+        };
+        let ctx = crate::integrator::irradiance_cache::IrradianceCacheContext {
+            scene,
+            camera: &self.camera,
+            integrator: &integrator,
+            settings,
+            width: s.width,
+            height: s.height,
+            seed: s.seed,
+        };
+        let cache = crate::integrator::irradiance_cache::IrradianceCache::build(&ctx);
+        let tables = cache.gpu_tables();
+        let device = &self.ctx.device;
+        let upload = |what: &str, bytes: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(what),
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        // A binding may not be empty: a cache without records binds one unused record.
+        let records = if tables.records.is_empty() {
+            vec![crate::scene::layout::IrradianceRecordGpu::default()]
+        } else {
+            tables.records
+        };
+        let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        self.bind_buffers[24] = upload("irradiance records", bytemuck::cast_slice(&records));
+        self.bind_buffers[25] = upload("irradiance cells", bytemuck::cast_slice(&tables.cells));
+        self.bind_buffers[26] = upload("irradiance indices", bytemuck::cast_slice(&tables.indices));
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("out of GPU memory uploading the irradiance cache: {e}")));
+        }
+        self.bind_group = Self::make_bind_group(device, &self.kernel, &self.bind_buffers);
+        self.ic_frame = (tables.normal_scale, tables.gradients as u32, tables.cells.len() as u32 - 1);
+        self.irradiance_cache = Some(cache);
+        Ok(())
     }
 
     /// Are the caustic paths light traced ([`RenderSettings::light_tracing`] asked for, and
@@ -541,9 +637,9 @@ impl GpuBackend {
             scene_center: self.scene_center,
             scene_radius: self.scene_radius,
             light_paths: self.light_paths(sample_offset),
-            _pad0: 0,
-            _pad1: 0,
-            _pad2: 0,
+            ic_normal_scale: self.ic_frame.0,
+            ic_gradients: self.ic_frame.1,
+            ic_table_mask: self.ic_frame.2,
         }
     }
 
@@ -728,6 +824,7 @@ impl Backend for GpuBackend {
     /// work was split. With light-traced caustics each sample index is one dispatch, after
     /// the light tracer's pass for that index.
     fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
+        self.ensure_irradiance_cache()?;
         self.fold_rays_before(self.ray_bound_per_sample() * samples as u64)?;
         if self.settings.integrator == Integrator::Bdpt {
             return self.render_bdpt(sample_offset, samples);
@@ -817,10 +914,14 @@ impl Backend for GpuBackend {
 
     fn rays_traced(&mut self) -> Result<u64> {
         self.fold_rays()?;
-        Ok(self.rays_folded)
+        // The cache's gathers were traced on the host.
+        let cache_rays =
+            self.irradiance_cache.as_ref().map_or(0, |c| c.stats.gather_rays + c.stats.overture_rays);
+        Ok(self.rays_folded + cache_rays)
     }
 
     fn render_rows(&mut self, sample_index: u32, rows: std::ops::Range<u32>) -> Result<()> {
+        self.ensure_irradiance_cache()?;
         let rows = rows.start.min(self.settings.height)..rows.end.min(self.settings.height);
         if rows.is_empty() {
             return Ok(());
@@ -860,6 +961,16 @@ impl Backend for GpuBackend {
         self.bdpt_pass = None;
         self.bdpt_truncated = 0;
         Ok(())
+    }
+
+    fn irradiance_cache_stats(
+        &mut self,
+    ) -> Option<crate::integrator::irradiance_cache::IrradianceCacheStats> {
+        self.irradiance_cache.as_ref().map(|c| c.stats)
+    }
+
+    fn irradiance_record_pixels(&mut self) -> Option<Vec<(u32, u32)>> {
+        self.irradiance_cache.as_ref().map(|c| c.records().iter().map(|r| r.pixel).collect())
     }
 
     fn bdpt_stats(&mut self) -> Option<BdptStats> {
@@ -906,6 +1017,8 @@ impl Backend for GpuBackend {
         self.caustic_pass = None;
         self.bdpt_pass = None;
         self.ctx.queue.write_buffer(&self.camera_buffer, 0, bytemuck::bytes_of(camera));
+        // Records are placed where this camera's paths land.
+        self.irradiance_cache = None;
         Ok(())
     }
 }

@@ -34,9 +34,10 @@ pub const COMMON_FILES: &[ShaderFile] = &[
     ("aov.wgsl", include_str!("../../shaders/aov.wgsl")),
 ];
 
-/// The path tracer's entry point (`render`) and its caustic light tracer's
-/// (`trace_caustics`).
+/// The path tracer's irradiance-cache lookup, its entry point (`render`) and its caustic
+/// light tracer's (`trace_caustics`).
 const PATH_FILES: &[ShaderFile] = &[
+    ("irradiance_cache.wgsl", include_str!("../../shaders/irradiance_cache.wgsl")),
     ("path.wgsl", include_str!("../../shaders/path.wgsl")),
     ("light_tracing.wgsl", include_str!("../../shaders/light_tracing.wgsl")),
 ];

@@ -50,6 +50,12 @@
 //! the stride-1 level every pixel's own point is covered; samples that land where none is
 //! valid (an accuracy below a pixel, or a path through glass) are path traced.
 //!
+//! **GPU.** The GPU backend places the same records on the host (this module, from the same
+//! streams) and uploads them with their grid as [`IrradianceCacheTables`]; its kernel's
+//! twin of [`IrradianceCache::lookup`] (`shaders/irradiance_cache.wgsl`) reads them in the
+//! host's order, so the two backends' images agree to rounding. Placing records with GPU
+//! passes (mark, gather in parallel, index) is not built yet.
+//!
 //! **Bias.** Interpolation error (the radius and gradients), the records' own noise (each
 //! is one M × 3M gather, and a pixel reads the same records for all its samples) and, on
 //! layered materials, the albedo approximation. More samples per pixel do not remove it;
@@ -259,8 +265,10 @@ impl LevelGrid {
         (2.0 * radius).max(f32::MIN_POSITIVE).log2().ceil() as i32
     }
 
+    /// The cell of side `size` (a power of two) holding p: p times the exact reciprocal,
+    /// the same bits in the kernel's twin.
     fn cell_of(p: Vec3, size: f32) -> [i32; 3] {
-        let c = (p / size).floor();
+        let c = (p * (1.0 / size)).floor();
         [c.x as i32, c.y as i32, c.z as i32]
     }
 
@@ -316,6 +324,31 @@ impl LevelGrid {
             }
         }
     }
+}
+
+/// The hash of a grid cell's key (level, x, y, z) in the kernel's table of cells; the WGSL
+/// twin `ic_cell_hash` computes the same bits.
+pub fn cell_hash(key: [i32; 4]) -> u32 {
+    let mut h = (key[0] as u32).wrapping_mul(0x9e37_79b1);
+    h = (h ^ (key[1] as u32).wrapping_mul(0x85eb_ca77)).rotate_left(13);
+    h = (h ^ (key[2] as u32).wrapping_mul(0xc2b2_ae3d)).rotate_left(13);
+    h ^= (key[3] as u32).wrapping_mul(0x27d4_eb2f);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x2c1b_3c6d);
+    h ^ (h >> 12)
+}
+
+/// A cache as the kernel reads it (`shaders/irradiance_cache.wgsl`): the records, an
+/// open-addressing hash table of the grid's cells (at most half full, linear probing), and
+/// the levels then each cell's record indices, in the host's order, so that the kernel sums
+/// the same records in the same order.
+pub struct IrradianceCacheTables {
+    pub records: Vec<crate::scene::layout::IrradianceRecordGpu>,
+    pub cells: Vec<crate::scene::layout::IrradianceCell>,
+    pub indices: Vec<u32>,
+    /// `FrameParams::ic_normal_scale`.
+    pub normal_scale: f32,
+    pub gradients: bool,
 }
 
 /// A render's irradiance cache.
@@ -392,6 +425,53 @@ impl IrradianceCache {
         cache.stats.bytes = cache.memory_bytes();
         cache.stats.seconds = start.elapsed().as_secs_f64();
         cache
+    }
+
+    /// The cache in the kernel's form ([`IrradianceCacheTables`]).
+    pub fn gpu_tables(&self) -> IrradianceCacheTables {
+        use crate::scene::layout::{IrradianceCell, IrradianceRecordGpu};
+        let a = self.settings.accuracy;
+        let records = self
+            .records
+            .iter()
+            .map(|r| IrradianceRecordGpu {
+                p: r.p.to_array(),
+                radius: a * r.clamped_radius(),
+                n: r.n.to_array(),
+                e: r.e.to_array(),
+                rotational: r.rotational.map(|g| g.extend(0.0).to_array()),
+                translational: r.translational.map(|g| g.extend(0.0).to_array()),
+                ..IrradianceRecordGpu::default()
+            })
+            .collect();
+        let mut indices = vec![self.grid.levels.len() as u32];
+        indices.extend(self.grid.levels.iter().map(|(level, _)| *level as u32));
+        let slots = (2 * self.grid.cells.len()).max(1).next_power_of_two();
+        let mut cells = vec![IrradianceCell::default(); slots];
+        // In key order, so that the table does not depend on the hash map's iteration order.
+        let mut keys: Vec<&[i32; 4]> = self.grid.cells.keys().collect();
+        keys.sort();
+        for key in keys {
+            let list = &self.grid.cells[key];
+            let mut slot = cell_hash(*key) as usize & (slots - 1);
+            while cells[slot].count != 0 {
+                slot = (slot + 1) & (slots - 1);
+            }
+            cells[slot] = IrradianceCell {
+                key: *key,
+                start: indices.len() as u32,
+                count: list.len() as u32,
+                ..IrradianceCell::default()
+            };
+            indices.extend(list);
+        }
+        IrradianceCacheTables {
+            records,
+            cells,
+            indices,
+            normal_scale: a * self.normal_unit,
+            gradients: self.settings.gradients,
+        }
     }
 
     /// Bytes held: the records, and the grid's cells (key, list header, indices) and

@@ -7,7 +7,7 @@
 //! | bidirectional path tracing, every strategy weighted by MIS | `bdpt` | [`bdpt`] | `shaders/bdpt.wgsl` |
 //! | stochastic progressive photon mapping (biased, consistent) | `sppm` | [`sppm`] | none yet: the GPU backend refuses it |
 //! | photon mapping: caustic and global maps, final gather (biased) | `photon` | [`photon`] | none yet: the GPU backend refuses it |
-//! | the path tracer with an irradiance cache for the first Lambertian vertex's indirect light (biased) | `path --irradiance-cache` | [`irradiance_cache`] | none yet: the GPU backend refuses it |
+//! | the path tracer with an irradiance cache for the first Lambertian vertex's indirect light (biased) | `path --irradiance-cache` | [`irradiance_cache`] | `shaders/irradiance_cache.wgsl`: the lookup (records placed on the host for both backends) |
 //!
 //! What every integrator shares lives beside them, each with a WGSL twin of the same name:
 //! * [`interaction`]: the surface record built at every path vertex and the side test of a

@@ -385,9 +385,43 @@ gpu_struct! {
         /// pixel, or under adaptive sampling one per pixel still taking samples; its splats
         /// are divided by it.
         pub light_paths: u32,
+        /// The irradiance cache's normal unit times its accuracy, a √(1 − cos 10°)
+        /// (`integrator::irradiance_cache`); 0 without a cache.
+        pub ic_normal_scale: f32,
+        /// 1: interpolate the cache's records with their gradients.
+        pub ic_gradients: u32,
+        /// The cache's hash table of cells has `ic_table_mask + 1` slots (a power of two).
+        pub ic_table_mask: u32,
+    }
+}
+
+gpu_struct! {
+    /// One irradiance-cache record as the kernel reads it (`integrator::irradiance_cache::
+    /// IrradianceRecord`, WGSL twin `shaders/irradiance_cache.wgsl`): the validity radius
+    /// already clamped and scaled by the accuracy. 144 bytes.
+    pub struct IrradianceRecordGpu {
+        pub p: [f32; 3],
+        pub radius: f32,
+        pub n: [f32; 3],
+        pub _pad0: u32,
+        pub e: [f32; 3],
+        pub _pad1: u32,
+        /// Per colour channel, xyz.
+        pub rotational: [[f32; 4]; 3],
+        pub translational: [[f32; 4]; 3],
+    }
+}
+
+gpu_struct! {
+    /// One slot of the irradiance cache's open-addressing hash table of grid cells: the key
+    /// (level, x, y, z) and the run of record indices it lists in `ic_indices`; `count` 0:
+    /// an empty slot. 32 bytes.
+    pub struct IrradianceCell {
+        pub key: [i32; 4],
+        pub start: u32,
+        pub count: u32,
         pub _pad0: u32,
         pub _pad1: u32,
-        pub _pad2: u32,
     }
 }
 
@@ -500,6 +534,8 @@ pub fn all_layouts() -> Vec<StructLayout> {
         entry::<Camera>(),
         entry::<Environment>(),
         entry::<FrameParams>(),
+        entry::<IrradianceRecordGpu>(),
+        entry::<IrradianceCell>(),
         entry::<FilmPixel>(),
         entry::<FirstHit>(),
         entry::<PixelAov>(),

@@ -211,10 +211,6 @@ fn make_backend(
     gpu: Option<&Arc<GpuContext>>,
 ) -> Result<OpenedBackend> {
     Ok(match gpu {
-        Some(_) if settings.irradiance_cache.is_some() => return Err(Error::Settings(
-            "--irradiance-cache: the GPU backend has no irradiance cache yet; render it with --backend cpu"
-                .into(),
-        )),
         Some(ctx) => {
             let backend = GpuBackend::new(ctx.clone(), flat, settings)?;
             let film = backend.film_buffer().clone();
@@ -337,13 +333,6 @@ impl Session {
                 );
                 BackendChoice::Cpu
             }
-            (BackendChoice::Auto, None) if options.irradiance_cache.is_some() => {
-                backend_note = Some(
-                    "backend auto: the GPU backend has no irradiance cache yet; rendering on the CPU backend"
-                        .to_string(),
-                );
-                BackendChoice::Cpu
-            }
             (BackendChoice::Auto, None) if !options.integrator.has_gpu_kernel() => {
                 backend_note = Some(format!(
                     "backend auto: the GPU backend has no {} kernel yet; rendering on the CPU backend",
@@ -373,11 +362,6 @@ impl Session {
             },
             (other, _) => other,
         };
-        if choice == BackendChoice::Gpu && options.irradiance_cache.is_some() {
-            return Err(Error::Settings(
-                "--irradiance-cache: the GPU backend has no irradiance cache yet; render it with --backend cpu".into(),
-            ));
-        }
         let gpu = match choice {
             BackendChoice::Gpu => Some(match gpu {
                 Some(ctx) => ctx,
