@@ -34,29 +34,6 @@ fn render(scene: &FlatScene, settings: &RenderSettings) -> Film {
     common::render(&mut CpuBackend::new(scene, settings), settings.spp)
 }
 
-/// relMSE of `film` against `reference`, the reference's own variance taken out (so that a
-/// reference of finite samples does not set a floor), averaged over pixels and channels.
-fn relmse_against(film: &Film, reference: &Film) -> f64 {
-    let var = reference.variance_of_mean();
-    let mut sum = 0.0;
-    for ((a, b), v) in film.pixels.iter().zip(&reference.pixels).zip(&var) {
-        for c in 0..3 {
-            let (a, b) = (a.mean[c] as f64, b.mean[c] as f64);
-            sum += ((a - b).powi(2) - v[c] as f64) / (b * b + 1e-2);
-        }
-    }
-    sum / (film.pixels.len() * 3) as f64
-}
-
-/// The image's mean over pixels and channels and its standard error (the channels' errors
-/// combined as independent: conservative enough for a bound of several of them).
-fn mean_and_error(film: &Film) -> (f64, f64) {
-    let m = common::image_mean_and_standard_error(film);
-    let mean = m.iter().map(|(m, _)| m).sum::<f64>() / 3.0;
-    let se = (m.iter().map(|(_, s)| s * s).sum::<f64>()).sqrt() / 3.0;
-    (mean, se)
-}
-
 /// A cache that holds no record changes nothing: every camera sample of every bundled
 /// scene is the path tracer's, bit for bit (the cache's bookkeeping in the path tracer,
 /// its throughput for direct light only, adds exact zeros where the cache is not read).
@@ -124,7 +101,8 @@ fn equals_the_path_tracer_within_its_bias_on_every_bundled_scene() {
         let scene = common::flat_scene(&file, size, size);
         let reference = render(&scene, &settings(size, 1024, 12, None));
         let film = render(&scene, &settings(size, 64, 11, cache(1.0)));
-        let ((a, sa), (b, sb)) = (mean_and_error(&film), mean_and_error(&reference));
+        let ((a, sa), (b, sb)) =
+            (common::image_mean_and_error(&film), common::image_mean_and_error(&reference));
         let bound = IMAGE_MEAN_BIAS_32PX * b.abs() + 5.0 * (sa * sa + sb * sb).sqrt();
         eprintln!(
             "{name:30} cached {a:.5} ± {sa:.5}, path {b:.5} ± {sb:.5}, offset {:+.2}%, bound {bound:.5}",
@@ -165,7 +143,7 @@ fn cornell_errors() -> &'static [(String, f64)] {
             ),
         ] {
             let film = render(&scene, &settings(size, 64, 22, cache));
-            let e = relmse_against(&film, &reference);
+            let e = common::relmse_against(&film, &reference);
             eprintln!("cornell-box 64², {label}: relMSE {e:.3e}");
             errors.push((label.to_string(), e));
         }

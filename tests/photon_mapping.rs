@@ -22,29 +22,6 @@ fn render(scene: &FlatScene, settings: &RenderSettings) -> Film {
     common::render(&mut CpuBackend::new(scene, settings), settings.spp)
 }
 
-/// relMSE of `film` against `reference`, the reference's own variance taken out (so that a
-/// reference of finite samples does not set a floor), averaged over pixels and channels.
-fn relmse_against(film: &Film, reference: &Film) -> f64 {
-    let var = reference.variance_of_mean();
-    let mut sum = 0.0;
-    for ((a, b), v) in film.pixels.iter().zip(&reference.pixels).zip(&var) {
-        for c in 0..3 {
-            let (a, b) = (a.mean[c] as f64, b.mean[c] as f64);
-            sum += ((a - b).powi(2) - v[c] as f64) / (b * b + 1e-2);
-        }
-    }
-    sum / (film.pixels.len() * 3) as f64
-}
-
-/// The image's mean over pixels and channels and its standard error (the channels' errors
-/// combined as independent: conservative enough for a bound of several of them).
-fn mean_and_error(film: &Film) -> (f64, f64) {
-    let m = common::image_mean_and_standard_error(film);
-    let mean = m.iter().map(|(m, _)| m).sum::<f64>() / 3.0;
-    let se = (m.iter().map(|(_, s)| s * s).sum::<f64>()).sqrt() / 3.0;
-    (mean, se)
-}
-
 /// The bias bound of a 256-pass SPPM image mean at 24² against the path tracer's: the
 /// blur of a radius that started at 3 pixel footprints (an eighth of these small images)
 /// darkens corners and edges and moves light across shadow boundaries. The largest offset
@@ -71,7 +48,8 @@ fn equals_the_path_tracer_within_its_bias_on_every_bundled_scene(integrator: Int
         let scene = common::flat_scene(&file, size, size);
         let reference = render(&scene, &settings(Integrator::Path, size, 1024, 12));
         let film = render(&scene, &settings(integrator, size, 256, 11));
-        let ((a, sa), (b, sb)) = (mean_and_error(&film), mean_and_error(&reference));
+        let ((a, sa), (b, sb)) =
+            (common::image_mean_and_error(&film), common::image_mean_and_error(&reference));
         let bound = IMAGE_MEAN_BIAS_24PX_256_PASSES * b.abs() + 5.0 * (sa * sa + sb * sb).sqrt();
         eprintln!("{name:30} {integrator} {a:.5} ± {sa:.5}, path {b:.5} ± {sb:.5}, bound {bound:.5}");
         if film.total_rejected() != 0 {
@@ -108,10 +86,11 @@ fn photon_mapping_equals_the_path_tracer_within_its_bias_on_every_bundled_scene(
 fn photon_mapping_bias_shrinks_with_more_photons() {
     let size = 24;
     let scene = common::flat_scene(&common::scene("cornell-box.gltf"), size, size);
-    let (reference, sr) = mean_and_error(&render(&scene, &settings(Integrator::Path, size, 1024, 12)));
+    let (reference, sr) =
+        common::image_mean_and_error(&render(&scene, &settings(Integrator::Path, size, 1024, 12)));
     let offset = |photons: u32| {
         let s = RenderSettings { photons: Some(photons), ..settings(Integrator::Photon, size, 64, 11) };
-        let (m, se) = mean_and_error(&render(&scene, &s));
+        let (m, se) = common::image_mean_and_error(&render(&scene, &s));
         eprintln!("{photons} photons: {m:.5} ± {se:.5} (path {reference:.5} ± {sr:.5})");
         ((m - reference).abs(), se)
     };
@@ -125,7 +104,7 @@ fn photon_mapping_bias_shrinks_with_more_photons() {
 /// passes: the least-squares slope of log relMSE over log passes. The noise alone falls as
 /// passes⁻¹ and the bias as the radius² ∝ passes^(α−1) = passes^(−1/3) (Knaus & Zwicker
 /// 2011), so the slope lies between −1 and −1/3 while both matter; −0.3 leaves a margin
-/// for the reference's own noise (taken out on average, `relmse_against`). Below about 32
+/// for the reference's own noise (taken out on average, `common::relmse_against`). Below about 32
 /// passes the error of a 32² image hardly falls: the blur of the initial radius (3 pixel
 /// footprints, a tenth of the image) dominates it, and shrinks slowly.
 fn converges(file: &str) {
@@ -135,8 +114,9 @@ fn converges(file: &str) {
     let mut points = Vec::new();
     for passes in [32u32, 128, 512] {
         let film = render(&scene, &settings(Integrator::Sppm, size, passes, 6));
-        let e = relmse_against(&film, &reference);
-        let ((a, _), (b, _)) = (mean_and_error(&film), mean_and_error(&reference));
+        let e = common::relmse_against(&film, &reference);
+        let ((a, _), (b, _)) =
+            (common::image_mean_and_error(&film), common::image_mean_and_error(&reference));
         eprintln!("{file}: {passes} passes: relMSE {e:.5}, image mean {a:.5} (reference {b:.5})");
         assert!(e > 0.0, "{file}: relMSE {e} at {passes} passes is below the reference's own noise");
         points.push(((passes as f64).ln(), e.ln()));
@@ -209,12 +189,12 @@ fn a_caustic_from_a_spot_light_the_path_tracer_cannot_render_is_rendered_by_phot
     let scene = spot_lit_glass_sphere();
     let path = render(&scene, &settings(Integrator::Path, size, 256, 1));
     let bdpt = render(&scene, &settings(Integrator::Bdpt, size, 64, 3));
-    let ((p, _), (b, _)) = (mean_and_error(&path), mean_and_error(&bdpt));
+    let ((p, _), (b, _)) = (common::image_mean_and_error(&path), common::image_mean_and_error(&bdpt));
     assert_eq!(p, 0.0, "the path tracer found light from a point through glass");
     assert!(b > 0.1, "bdpt renders no caustic ({b}): the scene does not test anything");
     for integrator in [Integrator::Sppm, Integrator::Photon] {
         let film = render(&scene, &settings(integrator, size, 256, 2));
-        let (a, sa) = mean_and_error(&film);
+        let (a, sa) = common::image_mean_and_error(&film);
         eprintln!("spot-lit glass sphere: {integrator} {a:.5} ± {sa:.5}, bdpt {b:.5}, path {p:.5}");
         assert!(a > 0.8 * b, "{integrator} renders {a:.5} of bdpt's {b:.5} caustic");
     }
@@ -280,7 +260,7 @@ fn sppm_equals_bdpt_where_bdpt_can_see_a_spot_lights_caustic_and_adds_what_it_ca
     let renders: Vec<((f64, f64), (f64, f64))> = (0..6)
         .map(|seed| {
             let film = render(&scene, &settings(Integrator::Bdpt, size, 32, 10 + seed));
-            (masked_mean(&film, &mask), mean_and_error(&film))
+            (masked_mean(&film, &mask), common::image_mean_and_error(&film))
         })
         .collect();
     let spread = |values: Vec<f64>| {
@@ -291,7 +271,7 @@ fn sppm_equals_bdpt_where_bdpt_can_see_a_spot_lights_caustic_and_adds_what_it_ca
     let (b_diffuse, sb_diffuse) = spread(renders.iter().map(|r| r.0 .0).collect());
     let (b_all, sb_all) = spread(renders.iter().map(|r| r.1 .0).collect());
     let (a_diffuse, sa_diffuse) = masked_mean(&sppm, &mask);
-    let (a_all, sa_all) = mean_and_error(&sppm);
+    let (a_all, sa_all) = common::image_mean_and_error(&sppm);
     eprintln!(
         "diffuse view: sppm {a_diffuse:.5} ± {sa_diffuse:.5}, bdpt {b_diffuse:.5} ± {sb_diffuse:.5}; \
          whole image: sppm {a_all:.5} ± {sa_all:.5}, bdpt {b_all:.5} ± {sb_all:.5}"
@@ -323,8 +303,8 @@ fn a_caustic_seen_through_a_glass_pane_is_rendered_by_sppm() {
     let scene = common::flat_scene(&common::scene("hard/cornell-spheres-behind-glass.gltf"), size, size);
     let reference = render(&scene, &settings(Integrator::Path, size, 4096, 3));
     let sppm = render(&scene, &settings(Integrator::Sppm, size, 256, 4));
-    let ((a, sa), (b, sb)) = (mean_and_error(&sppm), mean_and_error(&reference));
-    let e = relmse_against(&sppm, &reference);
+    let ((a, sa), (b, sb)) = (common::image_mean_and_error(&sppm), common::image_mean_and_error(&reference));
+    let e = common::relmse_against(&sppm, &reference);
     eprintln!("behind glass: sppm {a:.5} ± {sa:.5}, path {b:.5} ± {sb:.5}, relMSE {e:.5}");
     let bound = IMAGE_MEAN_BIAS_24PX_256_PASSES * b + 5.0 * (sa * sa + sb * sb).sqrt();
     assert!((a - b).abs() <= bound, "sppm {a:.5} ± {sa:.5}, path {b:.5} ± {sb:.5}: bound {bound:.5}");
@@ -341,7 +321,7 @@ fn furnace(integrator: Integrator, albedo: f64, file: &str) {
     let scene = common::flat_scene(&common::scene(file), size, size);
     let film = render(&scene, &settings(integrator, size, 256, 9));
     let exact = 1.0 / (1.0 - albedo);
-    let (mean, se) = mean_and_error(&film);
+    let (mean, se) = common::image_mean_and_error(&film);
     eprintln!("{integrator} furnace ρ = {albedo}: {mean:.5} ± {se:.5} (exact {exact})");
     assert_eq!(film.total_rejected(), 0);
     assert!(

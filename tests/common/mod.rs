@@ -215,6 +215,29 @@ pub fn image_mean_and_standard_error(film: &pathlight::film::Film) -> [(f64, f64
     })
 }
 
+/// The image's mean over pixels and channels and its standard error (the channels' errors
+/// combined as independent: conservative enough for a bound of several of them).
+pub fn image_mean_and_error(film: &pathlight::film::Film) -> (f64, f64) {
+    let m = image_mean_and_standard_error(film);
+    let mean = m.iter().map(|(m, _)| m).sum::<f64>() / 3.0;
+    let se = (m.iter().map(|(_, s)| s * s).sum::<f64>()).sqrt() / 3.0;
+    (mean, se)
+}
+
+/// relMSE of `film` against `reference`, the reference's own variance taken out (so that a
+/// reference of finite samples does not set a floor), averaged over pixels and channels.
+pub fn relmse_against(film: &pathlight::film::Film, reference: &pathlight::film::Film) -> f64 {
+    let var = reference.variance_of_mean();
+    let mut sum = 0.0;
+    for ((a, b), v) in film.pixels.iter().zip(&reference.pixels).zip(&var) {
+        for c in 0..3 {
+            let (a, b) = (a.mean[c] as f64, b.mean[c] as f64);
+            sum += ((a - b).powi(2) - v[c] as f64) / (b * b + 1e-2);
+        }
+    }
+    sum / (film.pixels.len() * 3) as f64
+}
+
 /// The GPU every GPU test shares (creating a device per test would waste seconds each), or
 /// `None` after saying loudly that the test was skipped. With `CI=true`, a missing adapter
 /// fails the test instead: CI must run these on lavapipe.
