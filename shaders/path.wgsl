@@ -131,7 +131,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                             l += path.beta * env.radiance;
                         } else {
                             let light_pdf = lights[environment.light_index].pmf * env.pdf_solid_angle;
-                            l += (path.beta + path.direct_only_beta) * env.radiance * power_heuristic(path.prev_pdf, light_pdf);
+                            l += direct_throughput(path) * env.radiance * power_heuristic(path.prev_pdf, light_pdf);
                         }
                     }
                     break;
@@ -149,7 +149,9 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                 if (FEATURE_VOLUME && (material.flags & MATERIAL_VOLUME) != 0u && !si.front_face) {
                     let transmittance = exp(-material.attenuation_coefficient * si.distance);
                     path.beta *= transmittance;
-                    path.direct_only_beta *= transmittance;
+                    if (IRRADIANCE_CACHE) {
+                        path.direct_only_beta *= transmittance;
+                    }
                 }
 
                 // Full weight: the cone's level of detail; weighted against light sampling: level 0,
@@ -165,7 +167,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                         }
                     } else {
                         let light_pdf = triangle_light_pdf(lights[si.emitter], path.ray.origin, si.p);
-                        l += (path.beta + path.direct_only_beta) * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(path.prev_pdf, light_pdf);
+                        l += direct_throughput(path) * emitted_radiance(untextured, hit.triangle, hit.b) * power_heuristic(path.prev_pdf, light_pdf);
                     }
                 }
                 if (IRRADIANCE_CACHE && any(path.direct_only_beta != vec3<f32>(0.0))) {
@@ -221,7 +223,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
             } else {
                 path.beta *= bs.weight;
             }
-            if (!is_finite_vec3(path.beta) || !is_finite_vec3(path.direct_only_beta)) {
+            if (!is_finite_vec3(path.beta) || (IRRADIANCE_CACHE && !is_finite_vec3(path.direct_only_beta))) {
                 poisoned = true;
                 break;
             }
@@ -238,12 +240,14 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                 path.non_delta_depth += 1u;
             }
             if (path.non_delta_depth >= frame.rr_min_depth || path.depth >= RR_ANY_BOUNCE_DEPTH) {
-                let q = survival_probability(path.beta + path.direct_only_beta, path.eta_scale);
+                let q = survival_probability(direct_throughput(path), path.eta_scale);
                 if (q <= 0.0 || rng_next_1d() >= q) {
                     break;
                 }
                 path.beta /= q;
-                path.direct_only_beta /= q;
+                if (IRRADIANCE_CACHE) {
+                    path.direct_only_beta /= q;
+                }
             }
             path_ended = false;
             break;
@@ -281,6 +285,16 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     film[pixel] = p;
     ray_counts[pixel] += rays_traced;
+}
+
+// The throughput a sampled light's emission at the next hit is weighted by: the path's, and
+// under the irradiance cache also the Lambertian share that carries only that emission.
+// Without the cache this is `path.beta`, and the sum folds away.
+fn direct_throughput(path: PathState) -> vec3<f32> {
+    if (IRRADIANCE_CACHE) {
+        return path.beta + path.direct_only_beta;
+    }
+    return path.beta;
 }
 
 // Twin of `next_event`: one light sample at `si`, MIS-weighted against the BSDF's

@@ -289,15 +289,16 @@ impl CpuBackend<'_> {
     }
 
     /// The irradiance cache for the current camera, placed if it is not yet.
-    fn ensure_irradiance_cache(&mut self, integrator: &IntegratorSettings) {
+    fn ensure_irradiance_cache(&mut self) {
         let Some(settings) = self.settings.irradiance_cache else { return };
         if self.irradiance_cache.is_some() {
             return;
         }
+        let integrator = crate::integrator::irradiance_cache::gather_settings(&self.settings);
         let ctx = IrradianceCacheContext {
             scene: &self.scene,
             camera: &self.camera,
-            integrator,
+            integrator: &integrator,
             settings,
             width: self.settings.width,
             height: self.settings.height,
@@ -345,7 +346,7 @@ impl CpuBackend<'_> {
             }
             return;
         }
-        self.ensure_irradiance_cache(&integrator);
+        self.ensure_irradiance_cache();
         if !integrator.caustics_by_light_tracing {
             return self.render_band_with(samples, rows, &integrator, None);
         }

@@ -415,15 +415,7 @@ impl GpuBackend {
             return Ok(());
         }
         let s = &self.settings;
-        // The path tracer's settings as the CPU backend gives them to the gathers.
-        let integrator = crate::integrator::IntegratorSettings {
-            max_depth: s.max_depth.unwrap_or(u32::MAX),
-            rr_min_depth: s.rr_min_depth,
-            splits: s.splits,
-            caustics_by_light_tracing: false,
-            only_strategy: None,
-            camera_connections: true,
-        };
+        let integrator = crate::integrator::irradiance_cache::gather_settings(s);
         let ctx = crate::integrator::irradiance_cache::IrradianceCacheContext {
             scene,
             camera: &self.camera,

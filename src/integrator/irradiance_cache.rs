@@ -192,8 +192,6 @@ pub struct IrradianceRecord {
     /// The radius before the pixel clamp and the accuracy: harmonic mean distance, limited by
     /// the gradient and the neighbours (world units).
     pub radius: f32,
-    /// One pixel's footprint at the record (world units).
-    pub footprint: f32,
     /// The pixel clamp ([`MIN_SPACING_PIXELS`], [`MAX_SPACING_FRACTION`]) in world units.
     pub bounds: (f32, f32),
     /// Rotational gradient, one world vector per colour channel.
@@ -359,6 +357,17 @@ pub struct IrradianceCache {
     /// 1 − cos 10°, under its square root: the normal term's unit.
     normal_unit: f32,
     pub stats: IrradianceCacheStats,
+}
+
+/// The path tracer's settings the gathers trace with, on either backend: the render's
+/// depth and roulette, no splitting and no light-traced caustics (the cache refuses the
+/// first and turns the second off: its gathers see the caustics).
+pub fn gather_settings(settings: &crate::RenderSettings) -> IntegratorSettings {
+    IntegratorSettings {
+        max_depth: settings.max_depth.unwrap_or(u32::MAX),
+        rr_min_depth: settings.rr_min_depth,
+        ..IntegratorSettings::default()
+    }
 }
 
 /// What building a cache reads.
@@ -734,7 +743,6 @@ fn compute_record(
         n: si.frame.z,
         e,
         radius: harmonic.min(gradient_limit),
-        footprint,
         bounds: (
             MIN_SPACING_PIXELS * footprint,
             (MAX_SPACING_FRACTION * ctx.height as f32).max(MIN_SPACING_PIXELS) * footprint,
