@@ -62,6 +62,10 @@ pub struct RenderSettings {
     /// The path tracer's irradiance cache (`--irradiance-cache`,
     /// `integrator::irradiance_cache`); `None`: none.
     pub irradiance_cache: Option<crate::integrator::irradiance_cache::IrradianceCacheSettings>,
+    /// Metropolis's settings (`--mutations-per-pixel`, `--bootstrap-samples`, `--chains`,
+    /// `--large-step`); only `--integrator mlt` reads them, and others refuse any but the
+    /// defaults.
+    pub mlt: crate::integrator::mlt::MltSettings,
 }
 
 impl Default for RenderSettings {
@@ -86,6 +90,7 @@ impl Default for RenderSettings {
             gather_photons: None,
             sppm_radius: None,
             irradiance_cache: None,
+            mlt: crate::integrator::mlt::MltSettings::default(),
         }
     }
 }
@@ -271,6 +276,24 @@ impl RenderSettings {
                 ));
             }
         }
+        if self.integrator == Integrator::Mlt {
+            self.mlt.validate()?;
+            let most = crate::integrator::mlt::MAX_MLT_DEPTH;
+            if self.max_depth.is_some_and(|d| d > most) {
+                return Err(crate::Error::Settings(format!(
+                    "--max-depth {} with --integrator mlt: each Markov chain keeps one path depth, \
+                     and depths above {most} are not supported (a light subpath holds at most {} vertices)",
+                    self.max_depth.unwrap_or(0),
+                    crate::integrator::bdpt::BDPT_MAX_VERTICES
+                )));
+            }
+        } else if self.mlt != crate::integrator::mlt::MltSettings::default() {
+            return Err(crate::Error::Settings(format!(
+                "--mutations-per-pixel, --bootstrap-samples, --chains and --large-step are options of \
+                 --integrator mlt, not of --integrator {}",
+                self.integrator
+            )));
+        }
         if !(1..=MAX_SPLITS).contains(&self.splits) {
             return Err(crate::Error::Settings(format!(
                 "--splits must be between 1 and {MAX_SPLITS}, not {}",
@@ -316,6 +339,10 @@ pub trait Backend {
     }
     /// What bidirectional path tracing counted (`None` for other integrators).
     fn bdpt_stats(&mut self) -> Option<crate::integrator::bdpt::BdptStats> {
+        None
+    }
+    /// What Metropolis's passes counted (`None` for other integrators).
+    fn mlt_stats(&mut self) -> Option<crate::integrator::mlt::MltStats> {
         None
     }
     /// Adds sample `sample_index` to the pixels of image rows `rows` only: bounded work, for

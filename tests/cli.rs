@@ -251,7 +251,7 @@ fn bad_input_gets_a_clear_error() {
     assert!(e.contains("/nonexistent-dir/x.exr"), "{e}");
     // An integrator that does not exist is refused, listing the ones that do.
     let e = run(&["render", cornell.to_str().unwrap(), "--integrator", "vcm", "-o", out]);
-    assert!(e.contains("'vcm'") && e.contains("[possible values: path, bdpt, sppm, photon]"), "{e}");
+    assert!(e.contains("'vcm'") && e.contains("[possible values: path, bdpt, sppm, photon, mlt]"), "{e}");
     // A photon-mapping option without photon mapping is refused, naming both.
     let e = run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "--photons", "1000", "-o", out]);
     assert!(
@@ -262,6 +262,67 @@ fn bad_input_gets_a_clear_error() {
     let e =
         run(&["render", cornell.to_str().unwrap(), "--backend", "cpu", "--bdpt-strategy", "2,2", "-o", out]);
     assert!(e.contains("--bdpt-strategy") && e.contains("--integrator bdpt"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Metropolis renders from the command line: `auto` renders it on the CPU and says so, the
+/// summary gives the acceptance rate, the EXR records its settings, its depth bound and what
+/// its variance channels measure; its options are refused by name where they do not apply,
+/// and bad values are refused with what they must be.
+#[test]
+fn metropolis_renders_and_its_options_are_checked() {
+    let dir = temp_dir("mlt");
+    let scene = common::scene("cornell-box.gltf");
+    let exr = dir.join("mlt.exr");
+    let out = pathlight()
+        .args(["render", scene.to_str().unwrap(), "--integrator", "mlt", "--spp", "4", "--width", "16"])
+        .args(["--mutations-per-pixel", "8", "--large-step", "0.5", "-o"])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("mlt: 4 passes, acceptance rate"), "{stderr}");
+    let image = pathlight::film::read_exr(&exr).unwrap();
+    assert_eq!(image.attributes["pathlight.integrator"], "mlt");
+    assert!(image.attributes["pathlight.backend"].starts_with("cpu"), "{:?}", image.attributes);
+    assert_eq!(image.attributes["pathlight.maxDepth"], "10");
+    let mlt = &image.attributes["pathlight.mlt"];
+    assert!(
+        mlt.contains("8 mutations per pixel per pass") && mlt.contains("large-step probability 0.5"),
+        "{mlt}"
+    );
+    assert!(image.attributes["pathlight.variance"].contains("independent passes"), "{:?}", image.attributes);
+    let mean = image.channels["G"].iter().sum::<f32>() / image.channels["G"].len() as f32;
+    assert!(mean > 0.05, "the Cornell box is lit (mean G {mean})");
+
+    let run = |args: &[&str]| {
+        let out = pathlight().args(args).output().unwrap();
+        assert!(!out.status.success(), "{args:?} should fail");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let (s, o) = (scene.to_str().unwrap(), dir.join("x.exr"));
+    let o = o.to_str().unwrap();
+    let e = run(&["render", s, "--backend", "cpu", "--chains", "4", "-o", o]);
+    assert!(e.contains("options of --integrator mlt, not of --integrator path"), "{e}");
+    let e = run(&["render", s, "--integrator", "mlt", "--large-step", "0", "-o", o]);
+    assert!(e.contains("--large-step") && e.contains("(0, 1]"), "{e}");
+    let e = run(&["render", s, "--integrator", "mlt", "--chains", "0", "-o", o]);
+    assert!(e.contains("--chains must be between 1 and"), "{e}");
+    let e = run(&["render", s, "--integrator", "mlt", "--max-depth", "40", "-o", o]);
+    assert!(e.contains("--max-depth 40 with --integrator mlt"), "{e}");
+    let e = run(&["render", s, "--integrator", "mlt", "--adaptive", "-o", o]);
+    assert!(e.contains("--adaptive renders with --integrator path only"), "{e}");
+    // The sealed room: no light to find, a black image and a warning.
+    let sealed = common::scene("hard/sealed-room.gltf");
+    let out = pathlight()
+        .args(["render", sealed.to_str().unwrap(), "--integrator", "mlt", "--spp", "2", "--width", "8", "-o"])
+        .arg(dir.join("sealed.exr"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("found no path that carries light"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -202,6 +202,61 @@ fn lamp_shade_room(path: &Path) {
     );
 }
 
+/// A room lit only through a slit (issue 45's Metropolis goal, after Veach's door ajar): a
+/// closed box on the floor holds the lamp, a square emitter on its floor facing up, and its
+/// only opening is a slit 2 cm wide across its lid. Light leaves it as a thin sheet that
+/// draws a line on the ceiling, and reaches everything the camera sees from there; the box's
+/// white inside scatters more out through the slit. A path tracer must find the slit from
+/// every wall point, and most of BDPT's light subpaths never leave the box; a Markov chain
+/// that found a path through the slit explores its neighbours. All Lambertian, so that
+/// peers render it too.
+fn slit_room(path: &Path) {
+    let mut g = Gltf::default();
+    let white = g.material(lambert("white walls", [0.75, 0.75, 0.72]));
+    let warm = g.material(lambert("warm wall", [0.7, 0.45, 0.3]));
+    let floor_m = g.material(lambert("floor", [0.45, 0.38, 0.3]));
+    let lamp = g.material(emitter("lamp", [4000.0, 3400.0, 2500.0], 0.0));
+    let (x0, x1, y1, z0, z1) = (-2.5, 2.5, 2.6, -2.5, 2.5);
+    let inside = [0.0, 1.3, 0.0];
+    let mut walls = Mesh::default();
+    walls.quad([[x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1]], inside);
+    walls.quad([[x0, 0.0, z0], [x1, 0.0, z0], [x1, y1, z0], [x0, y1, z0]], inside);
+    walls.quad([[x1, 0.0, z0], [x1, 0.0, z1], [x1, y1, z1], [x1, y1, z0]], inside);
+    walls.quad([[x0, 0.0, z1], [x1, 0.0, z1], [x1, y1, z1], [x0, y1, z1]], inside);
+    g.mesh("walls and ceiling", &walls, white);
+    let mut left = Mesh::default();
+    left.quad([[x0, 0.0, z0], [x0, 0.0, z1], [x0, y1, z1], [x0, y1, z0]], inside);
+    g.mesh("warm wall", &left, warm);
+    let mut floor = Mesh::default();
+    floor.quad([[x0, 0.0, z0], [x1, 0.0, z0], [x1, 0.0, z1], [x0, 0.0, z1]], inside);
+    g.mesh("floor", &floor, floor_m);
+    // The box: 0.6 × 0.5 × 0.6 m, one surface (white on both sides), its lid in two halves
+    // with the slit between them along z.
+    let (bx0, bx1, by1, bz0, bz1) = (-1.2, -0.6, 0.5, -1.8, -1.2);
+    let slit = 0.02;
+    let (sx0, sx1) = ((bx0 + bx1 - slit) / 2.0, (bx0 + bx1 + slit) / 2.0);
+    let centre = [(bx0 + bx1) / 2.0, by1 / 2.0, (bz0 + bz1) / 2.0];
+    let mut boxm = Mesh::default();
+    boxm.quad([[bx0, 0.0, bz0], [bx1, 0.0, bz0], [bx1, by1, bz0], [bx0, by1, bz0]], centre);
+    boxm.quad([[bx0, 0.0, bz1], [bx1, 0.0, bz1], [bx1, by1, bz1], [bx0, by1, bz1]], centre);
+    boxm.quad([[bx0, 0.0, bz0], [bx0, 0.0, bz1], [bx0, by1, bz1], [bx0, by1, bz0]], centre);
+    boxm.quad([[bx1, 0.0, bz0], [bx1, 0.0, bz1], [bx1, by1, bz1], [bx1, by1, bz0]], centre);
+    boxm.quad([[bx0, 0.001, bz0], [bx1, 0.001, bz0], [bx1, 0.001, bz1], [bx0, 0.001, bz1]], centre);
+    boxm.quad([[bx0, by1, bz0], [sx0, by1, bz0], [sx0, by1, bz1], [bx0, by1, bz1]], centre);
+    boxm.quad([[sx1, by1, bz0], [bx1, by1, bz0], [bx1, by1, bz1], [sx1, by1, bz1]], centre);
+    g.mesh("lamp box", &boxm, white);
+    // The lamp: 0.2 m square, 1 cm above the box's floor, facing up.
+    let (lx, lz, h) = (centre[0], centre[2], 0.1);
+    let mut bulb = Mesh::default();
+    bulb.quad(
+        [[lx - h, 0.011, lz - h], [lx + h, 0.011, lz - h], [lx + h, 0.011, lz + h], [lx - h, 0.011, lz + h]],
+        [lx, 1.0, lz],
+    );
+    g.mesh("lamp", &bulb, lamp);
+    g.perspective_camera("camera", 65f64.to_radians(), [0.3, 1.3, 2.3], [-0.06, 0.0, 0.0, 0.998_198]);
+    g.write(path, "A room lit only through a 2 cm slit in the lid of a closed box that holds the lamp");
+}
+
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     std::fs::create_dir_all(dir.join("hard")).unwrap();
@@ -250,6 +305,7 @@ fn main() {
     );
 
     lamp_shade_room(&dir.join("lamp-shade-room.gltf"));
+    slit_room(&dir.join("slit-room.gltf"));
     furnace(&dir.join("furnace-0.5.gltf"), 0.5);
     furnace(&dir.join("furnace-0.9.gltf"), 0.9);
 

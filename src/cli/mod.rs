@@ -135,6 +135,22 @@ pub struct SceneArgs {
     /// gradients (for comparison).
     #[arg(long, requires = "irradiance_cache")]
     pub ic_no_gradients: bool,
+    /// With --integrator mlt: Markov-chain mutations per pixel in each pass (each sample
+    /// index is an independent pass with its own bootstrap and chains; default 4).
+    #[arg(long, value_name = "N")]
+    pub mutations_per_pixel: Option<u32>,
+    /// With --integrator mlt: bootstrap samples per path depth in each pass, which estimate
+    /// its normalisation and seed its chains (default: a quarter of the pass's mutations
+    /// over the depths, at least 64).
+    #[arg(long, value_name = "N")]
+    pub bootstrap_samples: Option<u32>,
+    /// With --integrator mlt: Markov chains per pass (default: one per 1024 mutations).
+    #[arg(long, value_name = "N")]
+    pub chains: Option<u32>,
+    /// With --integrator mlt: the probability that a mutation is a large step, an
+    /// independent sample (default 0.3).
+    #[arg(long, value_name = "P")]
+    pub large_step: Option<f32>,
     /// Camera index in the file (default: the first camera, or one framing the scene).
     #[arg(long)]
     pub camera: Option<usize>,
@@ -209,6 +225,15 @@ impl SceneArgs {
                     gradients: !self.ic_no_gradients,
                 }
             }),
+            mlt: {
+                let defaults = pathlight::integrator::mlt::MltSettings::default();
+                pathlight::integrator::mlt::MltSettings {
+                    mutations_per_pixel: self.mutations_per_pixel.unwrap_or(defaults.mutations_per_pixel),
+                    bootstrap_samples: self.bootstrap_samples,
+                    chains: self.chains,
+                    large_step_probability: self.large_step.unwrap_or(defaults.large_step_probability),
+                }
+            },
             sampler: match self.sampler {
                 SamplerChoice::Sobol => pathlight::sampling::SamplerKind::Sobol,
                 SamplerChoice::Independent => pathlight::sampling::SamplerKind::Independent,

@@ -264,6 +264,21 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
             pathlight::integrator::bdpt::BDPT_MAX_VERTICES
         );
     }
+    if let Some(mlt) = session.mlt_stats() {
+        eprintln!(
+            "mlt: {} passes, acceptance rate {:.3}; the variance channels are the spread across independent passes",
+            mlt.passes,
+            mlt.acceptance_rate()
+        );
+        if mlt.passes_without_light > 0 {
+            eprintln!(
+                "warning: mlt: the bootstrap of {} of {} passes found no path that carries light (up to --max-depth {}); their images are black",
+                mlt.passes_without_light,
+                mlt.passes,
+                session.settings.max_depth.unwrap_or(pathlight::integrator::mlt::DEFAULT_MLT_MAX_DEPTH)
+            );
+        }
+    }
     if let Some(cache) = session.irradiance_cache_stats() {
         eprintln!(
             "irradiance cache: {} records placed in {:.2} s ({} gather rays), {:.0} KiB; the variance channels and the predicted error measure the samples' noise given the cache, not its interpolation bias",

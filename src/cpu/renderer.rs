@@ -7,6 +7,7 @@ use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, Str
 use crate::integrator::delta_view::camera_sees_only_delta_surfaces;
 use crate::integrator::irradiance_cache::{IrradianceCache, IrradianceCacheContext, IrradianceCacheStats};
 use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
+use crate::integrator::mlt::{mlt_pass, MltContext, MltStats, DEFAULT_MLT_MAX_DEPTH};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
 use crate::integrator::photon::{photon_map_sample, PhotonMapSettings, PhotonMaps, DEFAULT_GATHER_PHOTONS};
 use crate::integrator::sppm::{sppm_film, sppm_pass, SppmContext, SppmPixel, SppmSettings, SppmStats};
@@ -75,6 +76,9 @@ pub struct CpuBackend<'a> {
     /// The path tracer's irradiance cache, placed before its first sample for the current
     /// camera (`RenderSettings::irradiance_cache`).
     irradiance_cache: Option<IrradianceCache>,
+    /// What Metropolis's passes counted (a pass's image is kept in `bdpt_pass`, whole: its
+    /// splats land anywhere in the image too).
+    mlt_stats: MltStats,
 }
 
 /// A photon-mapping render's progressive state.
@@ -112,7 +116,7 @@ impl<'a> CpuBackend<'a> {
 
     fn with_scene(scene: SceneRef<'a>, settings: &RenderSettings) -> CpuBackend<'a> {
         let scene_light_traced = settings.light_tracing && scene_supports_light_tracing(&scene);
-        let joins_camera = scene_light_traced || settings.integrator == Integrator::Bdpt;
+        let joins_camera = scene_light_traced || settings.integrator.joins_camera();
         CpuBackend {
             camera: scene.camera,
             scene_light_traced,
@@ -130,6 +134,7 @@ impl<'a> CpuBackend<'a> {
             sppm: (settings.integrator == Integrator::Sppm).then(|| SppmRender::new(settings)),
             photon_maps: None,
             irradiance_cache: None,
+            mlt_stats: MltStats::default(),
         }
     }
 
@@ -156,7 +161,10 @@ impl<'a> CpuBackend<'a> {
     fn integrator_settings(&self) -> IntegratorSettings {
         let s = &self.settings;
         IntegratorSettings {
-            max_depth: s.max_depth.unwrap_or(u32::MAX),
+            max_depth: s.max_depth.unwrap_or(match s.integrator {
+                Integrator::Mlt => DEFAULT_MLT_MAX_DEPTH,
+                _ => u32::MAX,
+            }),
             rr_min_depth: s.rr_min_depth,
             splits: s.splits,
             caustics_by_light_tracing: self.light_traces_caustics(),
@@ -331,10 +339,13 @@ impl CpuBackend<'_> {
             return self.render_photon_band(samples, rows);
         }
         let integrator = self.integrator_settings();
-        if self.settings.integrator == Integrator::Bdpt {
+        if matches!(self.settings.integrator, Integrator::Bdpt | Integrator::Mlt) {
             for k in samples {
                 if self.bdpt_pass.as_ref().map(|(pass, _)| *pass) != Some(k) {
-                    let values = self.render_bdpt_pass(k, &integrator);
+                    let values = match self.settings.integrator {
+                        Integrator::Mlt => self.render_mlt_pass(k, &integrator),
+                        _ => self.render_bdpt_pass(k, &integrator),
+                    };
                     self.bdpt_pass = Some((k, values));
                 }
                 let (_, values) = self.bdpt_pass.as_ref().expect("rendered above");
@@ -459,6 +470,23 @@ impl CpuBackend<'_> {
         values
     }
 
+    /// Metropolis's pass `k`: an independent estimate of the whole image (`mlt_pass`).
+    fn render_mlt_pass(&mut self, k: u32, integrator: &IntegratorSettings) -> Vec<glam::Vec3> {
+        let s = &self.settings;
+        let ctx = MltContext {
+            scene: &self.scene,
+            camera: &self.camera,
+            integrator,
+            settings: s.mlt,
+            width: s.width,
+            height: s.height,
+            seed: s.seed,
+        };
+        let (image, stats) = mlt_pass(&ctx, k);
+        self.mlt_stats += stats;
+        image
+    }
+
     /// [`Self::render_band`] for one integrator, with `caustics` (the light tracer's image
     /// for the one sample index in `samples`) added to every sample when given.
     fn render_band_with(
@@ -494,7 +522,7 @@ impl CpuBackend<'_> {
                             Integrator::Path => {
                                 radiance(scene, integrator, cache, ray, cone, &mut sampler, rays)
                             }
-                            Integrator::Bdpt | Integrator::Sppm | Integrator::Photon => {
+                            Integrator::Bdpt | Integrator::Sppm | Integrator::Photon | Integrator::Mlt => {
                                 unreachable!("rendered by their own bands")
                             }
                         };
@@ -536,6 +564,7 @@ impl Backend for CpuBackend<'_> {
         self.light_rays = 0;
         self.bdpt_pass = None;
         self.bdpt_stats = BdptStats::default();
+        self.mlt_stats = MltStats::default();
         if let Some(strategies) = self.strategies.as_mut() {
             *strategies = (StrategyImages::new(), 0);
         }
@@ -556,7 +585,7 @@ impl Backend for CpuBackend<'_> {
 
     fn set_camera(&mut self, camera: &Camera) -> crate::Result<()> {
         self.camera = *camera;
-        let joins_camera = self.scene_light_traced || self.settings.integrator == Integrator::Bdpt;
+        let joins_camera = self.scene_light_traced || self.settings.integrator.joins_camera();
         self.camera_sees_only_delta = joins_camera && camera_sees_only_delta_surfaces(&self.scene, camera);
         self.caustic_pass = None;
         self.bdpt_pass = None;
@@ -588,7 +617,8 @@ impl Backend for CpuBackend<'_> {
     fn rays_traced(&mut self) -> crate::Result<u64> {
         let photon_rays = self.sppm_stats().map_or(0, |s| s.photon_rays);
         let cache_rays = self.irradiance_cache_stats().map_or(0, |s| s.gather_rays + s.overture_rays);
-        Ok(self.rays.iter().sum::<u64>() + self.light_rays + photon_rays + cache_rays)
+        let mlt_rays = self.mlt_stats.rays;
+        Ok(self.rays.iter().sum::<u64>() + self.light_rays + photon_rays + cache_rays + mlt_rays)
     }
 
     fn strategy_images(&mut self) -> crate::Result<Option<StrategyImages>> {
@@ -609,5 +639,9 @@ impl Backend for CpuBackend<'_> {
 
     fn bdpt_stats(&mut self) -> Option<BdptStats> {
         (self.settings.integrator == Integrator::Bdpt).then_some(self.bdpt_stats)
+    }
+
+    fn mlt_stats(&mut self) -> Option<MltStats> {
+        (self.settings.integrator == Integrator::Mlt).then_some(self.mlt_stats)
     }
 }

@@ -69,6 +69,9 @@ pub struct RenderMetadata {
     /// them; the variance channels then measure the samples' noise given the cache.
     /// `None`: none.
     pub irradiance_cache: Option<String>,
+    /// Metropolis's settings and acceptance rate, as `pathlight.mlt` says them; `None`:
+    /// another integrator.
+    pub mlt: Option<String>,
 }
 
 impl RenderMetadata {
@@ -204,6 +207,9 @@ pub fn write_exr_with(film: &Film, meta: &RenderMetadata, extras: &ExrExtras, pa
     }
     if let Some(cache) = &meta.irradiance_cache {
         put("pathlight.irradianceCache", text(cache.clone()));
+    }
+    if let Some(mlt) = &meta.mlt {
+        put("pathlight.mlt", text(mlt.clone()));
     }
     if let Some((_, denoiser)) = extras.denoised {
         put("pathlight.denoiser", text(denoiser.name().to_string()));

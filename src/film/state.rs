@@ -207,5 +207,6 @@ fn parse_metadata(path: &Path, attribute: &dyn Fn(&str) -> Result<String>) -> Re
         // Parts of one render share its cache (its records depend on the seed and the
         // camera, not on the samples), so a merge keeps what the parts say of it.
         irradiance_cache: attribute("pathlight.irradianceCache").ok(),
+        mlt: attribute("pathlight.mlt").ok(),
     })
 }

@@ -353,7 +353,7 @@ impl GpuContext {
         let (first_hit, _) = self.build_pipeline(&source, "first_hit", &constants)?;
         let resolve = match key.integrator {
             Integrator::Bdpt => Some(self.build_pipeline(&source, "bdpt_resolve", &constants)?.0),
-            Integrator::Path | Integrator::Sppm | Integrator::Photon => None,
+            Integrator::Path | Integrator::Sppm | Integrator::Photon | Integrator::Mlt => None,
         };
         let kernel = Arc::new(Kernel { key, render, first_hit, resolve, build_seconds, source });
         cache.insert(key, kernel.clone());

@@ -53,7 +53,7 @@ pub fn integrator_files(integrator: Integrator) -> &'static [ShaderFile] {
         Integrator::Bdpt => BDPT_FILES,
         // No kernel yet (`Integrator::has_gpu_kernel`): `GpuContext` refuses it before any
         // source is composed.
-        Integrator::Sppm | Integrator::Photon => &[],
+        Integrator::Sppm | Integrator::Photon | Integrator::Mlt => &[],
     }
 }
 

@@ -433,6 +433,124 @@ pub fn bdpt_sample(
     }
 }
 
+/// The three streams of numbers one Metropolis sample draws from (pbrt-v4
+/// `MLTIntegrator`'s camera, light and connection streams): a mutation of one stream's
+/// numbers leaves the others' meanings unchanged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Stream {
+    Camera = 0,
+    Light = 1,
+    Connection = 2,
+}
+
+/// Numbers drawn stream by stream ([`Stream`]): a Metropolis sampler's primary sample.
+pub(crate) trait StreamNumbers: WalkNumbers {
+    /// From now on numbers come from `stream`, from its first.
+    fn start_stream(&mut self, stream: Stream);
+}
+
+/// One strategy of one path, as multiplexed Metropolis light transport samples it
+/// (Hachisuka et al. 2014, §4; pbrt-v4 `MLTIntegrator::L`): a path of `depth` scattering
+/// events, the strategy (s, t) chosen uniformly among the depth + 2 of them by the camera
+/// stream's first number (depth 0 has the one, s = 0), a camera subpath of exactly t
+/// vertices through a point of the image chosen by the next two, a light subpath of exactly
+/// s, no Russian roulette on either, and the join. Returns the pixel and the strategy's
+/// weighted contribution times the number of strategies (its density's reciprocal), so that
+/// its expectation over strategies is the path's; `None` where it carries nothing. A
+/// strategy that BDPT does not sample ((1, 1), or t = 1 through an orthographic camera)
+/// carries nothing here either, and the weights of the others leave it out alike.
+///
+/// For t = 1 the value is divided by the image's pixels: BDPT sums a pass's splats over one
+/// light subpath per pixel, while here one sample stands for itself (pbrt-v4 normalises its
+/// camera's importance over the whole film for the same reason).
+pub(crate) fn strategy_sample(
+    ctx: &BdptContext,
+    numbers: &mut impl StreamNumbers,
+    depth: u32,
+    (width, height): (u32, u32),
+    paths: &mut Subpaths,
+    rays: &mut u64,
+) -> Option<(usize, Vec3)> {
+    paths.light.clear();
+    paths.camera.clear();
+    numbers.start_stream(Stream::Camera);
+    let (s, t, strategies) = if depth == 0 {
+        (0, 2, 1)
+    } else {
+        let n = depth as usize + 2;
+        let s = ((numbers.uniform_1d() * n as f32) as usize).min(n - 1);
+        (s, n - s, n)
+    };
+    let u_film = numbers.uniform_2d();
+    if !ctx.strategy_is_sampled(s, t) {
+        return None;
+    }
+    let (fx, fy) = (u_film.x * width as f32, u_film.y * height as f32);
+    let (px, py) = ((fx as u32).min(width - 1), (fy as u32).min(height - 1));
+    let jitter = Vec2::new((fx - px as f32).clamp(0.0, 1.0), (fy - py as f32).clamp(0.0, 1.0));
+    let ray = crate::scene::camera::generate_camera_ray(ctx.camera, width, height, px, py, jitter);
+    let pixel = py as usize * width as usize + px as usize;
+
+    let camera = ctx.camera;
+    let mut x0 = Vertex::endpoint(Kind::Camera, ray.origin, Vec3::from(camera.forward), 0, Vec3::ONE, 1.0);
+    x0.delta = camera.projection != PROJECTION_PERSPECTIVE;
+    paths.camera.push(Densities { fwd: 1.0, rev: 0.0, delta: x0.delta });
+    // x_{t−2} and x_{t−1} (both x₀ when t = 1).
+    let (mut before, mut end) = (x0, x0);
+    if t >= 2 {
+        let pdf_direction = if x0.delta { 1.0 } else { camera_pdf_direction(camera, ray.direction) };
+        let mut walk = Walk::new(ray, Vec3::ONE, pdf_direction, Transport::Radiance);
+        walk.roulette = false;
+        let mut from = x0;
+        loop {
+            let mut v = walk.trace(ctx, numbers, &from, rays)?;
+            paths.camera.push(Densities { fwd: v.pdf_fwd, rev: 0.0, delta: false });
+            let here = paths.camera.len();
+            if here == t {
+                (before, end) = (from, v);
+                break;
+            }
+            if v.kind == Kind::Environment {
+                return None;
+            }
+            let rev = walk.scatter(ctx, numbers, &mut v, &from, here - 1)?;
+            paths.camera[here - 2].rev = rev;
+            paths.camera[here - 1].delta = v.delta;
+            from = v;
+        }
+    }
+
+    numbers.start_stream(Stream::Light);
+    if s >= 2 {
+        let (y0, mut walk) = light_subpath_origin(ctx.scene, numbers)?;
+        walk.roulette = false;
+        paths.light.push(y0);
+        while paths.light.len() < s {
+            let here = paths.light.len();
+            let mut v = walk.trace(ctx, numbers, &paths.light[here - 1], rays)?;
+            if here + 1 < s {
+                let rev = walk.scatter(ctx, numbers, &mut v, &paths.light[here - 1], here)?;
+                paths.light[here - 1].pdf_rev = rev;
+            }
+            paths.light.push(v);
+        }
+    }
+
+    numbers.start_stream(Stream::Connection);
+    let cam = CameraEnd { before: &before, end: &end, densities: &paths.camera };
+    let (pixel, value) = match (s, t) {
+        (_, 1) => {
+            let (pixel, value) = join_camera(ctx, &x0, &paths.camera, &paths.light, s, numbers, rays)?;
+            (pixel, value / (width as f32 * height as f32))
+        }
+        (0, _) => (pixel, emitter_hit(ctx, &cam, t)),
+        (1, _) => (pixel, join_light_sample(ctx, &cam, t, numbers, rays)),
+        _ => (pixel, join(ctx, &cam, &paths.light, s, t, numbers, rays)),
+    };
+    let value = value * strategies as f32;
+    (value.is_finite() && value.max_element() > 0.0).then_some((pixel, value))
+}
+
 /// Which quantity a subpath carries.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Transport {
@@ -449,6 +567,10 @@ pub(crate) trait WalkNumbers {
     fn lobe(&mut self, used: bool) -> f32;
     fn direction(&mut self) -> Vec2;
     fn roulette(&mut self) -> f32;
+    /// A number for anything else (a light's choice, a side).
+    fn uniform_1d(&mut self) -> f32;
+    /// Two numbers for anything else (a light sample, a point on a light).
+    fn uniform_2d(&mut self) -> Vec2;
 }
 
 impl WalkNumbers for PathSampler {
@@ -469,6 +591,12 @@ impl WalkNumbers for PathSampler {
     fn roulette(&mut self) -> f32 {
         self.next_1d()
     }
+    fn uniform_1d(&mut self) -> f32 {
+        self.next_1d()
+    }
+    fn uniform_2d(&mut self) -> Vec2 {
+        self.next_2d()
+    }
 }
 
 impl WalkNumbers for Rng {
@@ -483,6 +611,12 @@ impl WalkNumbers for Rng {
     }
     fn roulette(&mut self) -> f32 {
         self.next_1d()
+    }
+    fn uniform_1d(&mut self) -> f32 {
+        self.next_1d()
+    }
+    fn uniform_2d(&mut self) -> Vec2 {
+        self.next_2d()
     }
 }
 
@@ -501,12 +635,24 @@ pub(crate) struct Walk {
     /// tracer's does): a light path carries power, not a unit.
     roulette_scale: f32,
     transport: Transport,
+    /// Plays Russian roulette; off where the caller fixes the subpath's length (Metropolis,
+    /// [`strategy_sample`]).
+    roulette: bool,
 }
 
 impl Walk {
     fn new(ray: Ray, beta: Vec3, pdf_solid_angle: f32, transport: Transport) -> Walk {
         let roulette_scale = if transport == Transport::Importance { 1.0 / beta.max_element() } else { 1.0 };
-        Walk { ray, beta, pdf_solid_angle, eta_scale: 1.0, non_delta_depth: 0, roulette_scale, transport }
+        Walk {
+            ray,
+            beta,
+            pdf_solid_angle,
+            eta_scale: 1.0,
+            non_delta_depth: 0,
+            roulette_scale,
+            transport,
+            roulette: true,
+        }
     }
 
     /// Traces the ray from vertex `from`: the vertex it reaches (for the camera subpath, the
@@ -629,6 +775,7 @@ impl Walk {
             self.non_delta_depth += 1;
         }
         let survival = match self.transport {
+            _ if !self.roulette => None,
             Transport::Radiance => (self.non_delta_depth >= settings.rr_min_depth
                 || here as u32 >= RR_ANY_BOUNCE_DEPTH)
                 .then(|| survival_probability(self.beta, self.eta_scale)),
@@ -676,14 +823,14 @@ fn light_subpath(
 /// module's "Random numbers" gives. Lights at infinity (directional, environment) send
 /// their paths from a disk covering the scene. `None` where the scene has no light or the
 /// sample carries nothing. Photon tracing (`super::sppm`) starts its photons here too.
-pub(crate) fn light_subpath_origin(scene: &FlatScene, rng: &mut Rng) -> Option<(Vertex, Walk)> {
+pub(crate) fn light_subpath_origin(scene: &FlatScene, rng: &mut impl WalkNumbers) -> Option<(Vertex, Walk)> {
     if scene.lights.is_empty() {
         return None;
     }
-    let index = choose_light(&scene.lights, rng.next_2d());
-    let u_point = rng.next_2d();
-    let u_side = rng.next_1d();
-    let u_direction = rng.next_2d();
+    let index = choose_light(&scene.lights, rng.uniform_2d());
+    let u_point = rng.uniform_2d();
+    let u_side = rng.uniform_1d();
+    let u_direction = rng.uniform_2d();
     let light = &scene.lights[index];
     let pmf = light.pmf;
     if pmf <= 0.0 {
@@ -978,11 +1125,11 @@ fn join_camera(
     camera: &[Densities],
     light: &[Vertex],
     s: usize,
-    rng: &mut Rng,
+    rng: &mut impl WalkNumbers,
     rays: &mut u64,
 ) -> Option<(usize, Vec3)> {
     let scene = ctx.scene;
-    let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
+    let alpha_seed = if scene.features.alpha { rng.u32() } else { 0 };
     let projection = ctx.projection.as_ref()?;
     let qs = &light[s - 1];
     let surface = qs.surface.as_ref()?;
@@ -1026,7 +1173,7 @@ fn join_light_sample(
     ctx: &BdptContext,
     cam: &CameraEnd,
     t: usize,
-    sampler: &mut PathSampler,
+    sampler: &mut impl WalkNumbers,
     rays: &mut u64,
 ) -> Vec3 {
     let scene = ctx.scene;
@@ -1036,7 +1183,7 @@ fn join_light_sample(
         return Vec3::ZERO;
     }
     let si = &surface.si;
-    let u_light = sampler.next_2d();
+    let u_light = sampler.uniform_2d();
     let Some(ls) = sample_light(scene.light_arrays(), si.p, si.p_error, si.n_geometric, u_light) else {
         return Vec3::ZERO;
     };
@@ -1044,7 +1191,7 @@ fn join_light_sample(
     let f = if sides_agree(si, ls.wi, wi) { surface.bsdf.eval(si.wo, wi) } else { Vec3::ZERO };
     let unoccluded = f.max_element() > 0.0 && {
         *rays += 1;
-        let alpha_seed = if scene.features.alpha { sampler.next_u32() } else { 0 };
+        let alpha_seed = if scene.features.alpha { sampler.u32() } else { 0 };
         !scene.intersect_any(&ls.shadow_ray, alpha_seed)
     };
     if !unoccluded {
@@ -1086,11 +1233,11 @@ fn join(
     light: &[Vertex],
     s: usize,
     t: usize,
-    sampler: &mut PathSampler,
+    sampler: &mut impl WalkNumbers,
     rays: &mut u64,
 ) -> Vec3 {
     let scene = ctx.scene;
-    let alpha_seed = if scene.features.alpha { sampler.next_u32() } else { 0 };
+    let alpha_seed = if scene.features.alpha { sampler.u32() } else { 0 };
     let (pt, qs) = (cam.end, &light[s - 1]);
     let (Some(cs), Some(ls)) = (pt.surface.as_ref(), qs.surface.as_ref()) else { return Vec3::ZERO };
     if !pt.connectible() || !qs.connectible() {

@@ -7,6 +7,7 @@
 //! | bidirectional path tracing, every strategy weighted by MIS | `bdpt` | [`bdpt`] | `shaders/bdpt.wgsl` |
 //! | stochastic progressive photon mapping (biased, consistent) | `sppm` | [`sppm`] | none yet: the GPU backend refuses it |
 //! | photon mapping: caustic and global maps, final gather (biased) | `photon` | [`photon`] | none yet: the GPU backend refuses it |
+//! | Metropolis light transport over BDPT's strategies, multiplexed (primary sample space) | `mlt` | [`mlt`] | none yet: the GPU backend refuses it |
 //! | the path tracer with an irradiance cache for the first Lambertian vertex's indirect light (biased) | `path --irradiance-cache` | [`irradiance_cache`] | `shaders/irradiance_cache.wgsl`: the lookup (records placed on the host for both backends) |
 //!
 //! What every integrator shares lives beside them, each with a WGSL twin of the same name:
@@ -33,6 +34,7 @@ pub mod interaction;
 pub mod irradiance_cache;
 pub mod light_tracing;
 pub mod mis;
+pub mod mlt;
 pub mod partition;
 pub mod path;
 pub mod photon;
@@ -66,12 +68,16 @@ pub enum Integrator {
     /// Photon mapping with a caustic map, a global map and a final gather (Jensen 1996;
     /// [`photon`]): biased, its maps fixed for the render; CPU only so far.
     Photon,
+    /// Multiplexed Metropolis light transport over the bidirectional strategies (Kelemen et
+    /// al. 2002; Hachisuka et al. 2014; [`mlt`]): consistent, paths up to a depth bound;
+    /// CPU only so far.
+    Mlt,
 }
 
 impl Integrator {
     /// Every integrator, in the order `--integrator` lists them.
-    pub const ALL: [Integrator; 4] =
-        [Integrator::Path, Integrator::Bdpt, Integrator::Sppm, Integrator::Photon];
+    pub const ALL: [Integrator; 5] =
+        [Integrator::Path, Integrator::Bdpt, Integrator::Sppm, Integrator::Photon, Integrator::Mlt];
 
     /// The name `--integrator` takes and outputs record.
     pub fn name(self) -> &'static str {
@@ -80,6 +86,7 @@ impl Integrator {
             Integrator::Bdpt => "bdpt",
             Integrator::Sppm => "sppm",
             Integrator::Photon => "photon",
+            Integrator::Mlt => "mlt",
         }
     }
 
@@ -88,8 +95,14 @@ impl Integrator {
     pub fn has_gpu_kernel(self) -> bool {
         match self {
             Integrator::Path | Integrator::Bdpt => true,
-            Integrator::Sppm | Integrator::Photon => false,
+            Integrator::Sppm | Integrator::Photon | Integrator::Mlt => false,
         }
+    }
+
+    /// Does it join light paths to the camera (t = 1), so that a camera seeing only delta
+    /// surfaces has it skip them (`super::delta_view`)?
+    pub fn joins_camera(self) -> bool {
+        matches!(self, Integrator::Bdpt | Integrator::Mlt)
     }
 
     /// Is it unbiased? A biased integrator's variance channels measure its noise, not its
@@ -97,7 +110,7 @@ impl Integrator {
     pub fn is_unbiased(self) -> bool {
         match self {
             Integrator::Path | Integrator::Bdpt => true,
-            Integrator::Sppm | Integrator::Photon => false,
+            Integrator::Sppm | Integrator::Photon | Integrator::Mlt => false,
         }
     }
 
@@ -110,6 +123,7 @@ impl Integrator {
                 "the spread of each pixel's per-pass estimates (each at its pass's photon radius): noise only; \
                  the bias of the radius is not in it, nor in the predicted error"
             }
+            Integrator::Mlt => mlt::VARIANCE_MEANING,
             Integrator::Photon => {
                 "the sample variance of each pixel's samples given the render's photon maps: noise only; \
                  the maps' bias (their radii and their own noise) is not in it, nor in the predicted error"

@@ -20,7 +20,7 @@ use glam::{DVec3, Vec3};
 
 pub use camera::{CameraDesc, Projection};
 pub use features::SceneFeatures;
-pub use flat::{FlatScene, ViewSettings, DEFAULT_BACKGROUND};
+pub use flat::{luminance, FlatScene, ViewSettings, DEFAULT_BACKGROUND};
 pub use gltf_load::{load, load_from_bytes, load_with, SUPPORTED_EXTENSIONS};
 pub use light::{PunctualKind, PunctualLight};
 pub use material::{AlphaMode, MaterialDesc, TextureSlot};

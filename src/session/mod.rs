@@ -114,6 +114,9 @@ pub struct SessionOptions {
     pub gather_photons: Option<u32>,
     /// `RenderSettings::irradiance_cache` (`--irradiance-cache`).
     pub irradiance_cache: Option<crate::integrator::irradiance_cache::IrradianceCacheSettings>,
+    /// `RenderSettings::mlt` (`--mutations-per-pixel`, `--bootstrap-samples`, `--chains`,
+    /// `--large-step`).
+    pub mlt: crate::integrator::mlt::MltSettings,
     pub backend: BackendChoice,
     /// GPU: the first adapter whose name contains this (asks for the GPU backend).
     pub device: Option<String>,
@@ -153,6 +156,7 @@ impl SessionOptions {
             caustic_photons: None,
             gather_photons: None,
             irradiance_cache: None,
+            mlt: crate::integrator::mlt::MltSettings::default(),
             backend: BackendChoice::Auto,
             device: None,
             outputs: OutputOptions::default(),
@@ -286,6 +290,7 @@ impl Session {
             caustic_photons: options.caustic_photons,
             gather_photons: options.gather_photons,
             irradiance_cache: options.irradiance_cache,
+            mlt: options.mlt,
             aovs: options.outputs.needs_aovs() || options.aovs_available,
             adaptive: options.adaptive.is_some(),
             ..RenderSettings::default()
@@ -633,6 +638,11 @@ impl Session {
         self.backend.bdpt_stats()
     }
 
+    /// What Metropolis's passes counted (`None` for other integrators).
+    pub fn mlt_stats(&mut self) -> Option<crate::integrator::mlt::MltStats> {
+        self.backend.mlt_stats()
+    }
+
     /// What the photon passes counted (`None` for other integrators).
     pub fn sppm_stats(&mut self) -> Option<crate::integrator::sppm::SppmStats> {
         self.backend.sppm_stats()
@@ -672,7 +682,21 @@ impl Session {
     pub fn metadata(&mut self) -> Result<RenderMetadata> {
         let rejected = self.backend.film()?.total_rejected();
         let cache_stats = self.backend.irradiance_cache_stats();
+        let mlt_stats = self.backend.mlt_stats();
         Ok(RenderMetadata {
+            mlt: mlt_stats.map(|stats| {
+                let m = &self.settings.mlt;
+                format!(
+                    "{} mutations per pixel per pass, bootstrap {} per depth, chains {}, large-step probability {}, acceptance rate {:.3}, {} of {} passes found no light",
+                    m.mutations_per_pixel,
+                    m.bootstrap_samples.map_or("default".into(), |n| n.to_string()),
+                    m.chains.map_or("default".into(), |n| n.to_string()),
+                    m.large_step_probability,
+                    stats.acceptance_rate(),
+                    stats.passes_without_light,
+                    stats.passes
+                )
+            }),
             irradiance_cache: self.settings.irradiance_cache.map(|c| {
                 let (m, n) = crate::integrator::irradiance_cache::gather_strata(c.gather_rays);
                 format!(
@@ -695,7 +719,10 @@ impl Session {
             film_state: self.shard,
             seed: self.settings.seed,
             integrator: self.settings.integrator,
-            max_depth: self.settings.max_depth,
+            max_depth: match self.settings.integrator {
+                Integrator::Mlt => Some(self.settings.max_depth.unwrap_or(crate::integrator::mlt::DEFAULT_MLT_MAX_DEPTH)),
+                _ => self.settings.max_depth,
+            },
             sampler: self.settings.sampler,
             splits: self.settings.splits,
             render_seconds: self.seconds,
