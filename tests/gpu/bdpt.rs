@@ -33,14 +33,14 @@ fn bundled_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
 }
 
 /// Same seed, same image to rounding (`same_seed_agrees_with` states the tolerance: 1e-3
-/// relative in all but 1% of pixels), on the 35 bundled scenes but one under Sobol and on four
+/// relative in all but 1% of pixels), on the 36 bundled scenes but one under Sobol and on four
 /// under independent numbers; and the same count of light subpaths ended at the bound (a
 /// path that rounding diverges may end elsewhere: within 1 + 10%).
 #[test]
 fn bdpt_same_seed_agrees_on_every_bundled_scene() {
     let Some(ctx) = common::gpu() else { return };
     let scenes = bundled_scenes();
-    assert_eq!(scenes.len(), 35, "scenes/ and scenes/hard/ hold 35 scenes");
+    assert_eq!(scenes.len(), 36, "scenes/ and scenes/hard/ hold 36 scenes");
     for (file, scene) in &scenes {
         // Its red and green squares share a plane: which one a ray hits is decided by the
         // last bit of the intersection, so the backends legitimately pick differently (the

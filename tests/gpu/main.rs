@@ -194,6 +194,7 @@ const SCENES: &[&str] = &[
     "env-furnace.gltf",
     "env-objects.gltf",
     "lamp-shade-room.gltf",
+    "slit-room.gltf",
 ];
 
 #[test]
@@ -319,6 +320,12 @@ fn cornell_box_gpu_matches_cpu() {
 fn lamp_shade_room_gpu_matches_cpu() {
     // Lit only by way of the ceiling: rare bright paths, so more samples than the box.
     gpu_matches_cpu("lamp-shade-room.gltf", 24, 512);
+}
+
+#[test]
+fn slit_room_gpu_matches_cpu() {
+    // Lit only through a 2 cm slit: rarer bright paths still than the lamp room's.
+    gpu_matches_cpu("slit-room.gltf", 24, 512);
 }
 
 #[test]
