@@ -313,6 +313,51 @@ fn metropolis_renders_and_its_options_are_checked() {
     assert!(e.contains("--max-depth 40 with --integrator mlt"), "{e}");
     let e = run(&["render", s, "--integrator", "mlt", "--adaptive", "-o", o]);
     assert!(e.contains("--adaptive renders with --integrator path only"), "{e}");
+    // Passes are independent renders, so parts of a render merge to the whole render.
+    let part = |range: &str, file: &str| {
+        let out = pathlight()
+            .args([
+                "render",
+                s,
+                "--integrator",
+                "mlt",
+                "--spp",
+                "4",
+                "--width",
+                "16",
+                "--samples",
+                range,
+                "-o",
+            ])
+            .arg(dir.join(file))
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    };
+    part("0..2", "a.exr");
+    part("2..4", "b.exr");
+    let out = pathlight()
+        .arg("merge")
+        .args([dir.join("a.exr"), dir.join("b.exr")])
+        .arg("-o")
+        .arg(dir.join("merged.exr"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let whole = pathlight()
+        .args(["render", s, "--integrator", "mlt", "--spp", "4", "--width", "16", "-o"])
+        .arg(dir.join("whole.exr"))
+        .output()
+        .unwrap();
+    assert!(whole.status.success());
+    let (merged, whole) = (
+        pathlight::film::read_exr(&dir.join("merged.exr")).unwrap(),
+        pathlight::film::read_exr(&dir.join("whole.exr")).unwrap(),
+    );
+    for (a, b) in merged.channels["G"].iter().zip(&whole.channels["G"]) {
+        // The merge averages the parts' means: the same sums in another order, to rounding.
+        assert!((a - b).abs() <= 1e-6 * b.abs().max(1e-3), "merged {a} vs whole {b}");
+    }
     // The sealed room: no light to find, a black image and a warning.
     let sealed = common::scene("hard/sealed-room.gltf");
     let out = pathlight()
