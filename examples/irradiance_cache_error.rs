@@ -120,15 +120,6 @@ fn series(
     (s, stats)
 }
 
-/// Seconds for `series` to reach `error`, and whether that was extrapolated past its end.
-fn catch_up(series: &Series, error: f64) -> Option<(f64, bool)> {
-    if let Some(t) = series.time_to_error(error) {
-        return Some((t, false));
-    }
-    let (e, t) = series.last()?;
-    Some((t * e / error, true))
-}
-
 fn main() {
     let args = parse_args();
     std::fs::create_dir_all(&args.out).unwrap();
@@ -174,7 +165,7 @@ fn main() {
     println!();
     for (settings, cached, _) in &rows {
         if let Some(e) = cached.error_at_time(longest) {
-            match catch_up(&path, e) {
+            match path.time_to_error_or_extrapolated(e) {
                 Some((t, extrapolated)) => println!(
                     "accuracy {}: the path tracer reaches the cache's {longest} s error ({e:.3e}) after {t:.0} s{}",
                     settings.accuracy,

@@ -120,15 +120,6 @@ fn series(
     (s, acceptance)
 }
 
-/// Seconds for `series` to reach `error`, and whether that was extrapolated past its end.
-fn catch_up(series: &Series, error: f64) -> Option<(f64, bool)> {
-    if let Some(t) = series.time_to_error(error) {
-        return Some((t, false));
-    }
-    let (e, t) = series.last()?;
-    Some((t * e / error, true))
-}
-
 fn main() {
     let args = parse_args();
     std::fs::create_dir_all(&args.out).unwrap();
@@ -161,7 +152,7 @@ fn main() {
     println!();
     if let Some(e) = mlt.error_at_time(longest) {
         for (label, s) in [("BDPT", &bdpt), ("the path tracer", &path)] {
-            match catch_up(s, e) {
+            match s.time_to_error_or_extrapolated(e) {
                 Some((t, extrapolated)) => println!(
                     "{label} reaches Metropolis's {longest} s error ({e:.3e}) after {t:.0} s{}",
                     if extrapolated { " (extrapolated by 1/t past its last checkpoint)" } else { "" }

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use pathlight::cpu::CpuBackend;
 use pathlight::film::Film;
 use pathlight::integrator::Integrator;
-use pathlight::scene::{FlatScene, Scene, ViewSettings};
+use pathlight::scene::{FlatScene, ViewSettings};
 use pathlight::RenderSettings;
 
 fn settings(integrator: Integrator, size: u32, spp: u32, seed: u32) -> RenderSettings {
@@ -86,11 +86,7 @@ fn bdpt_equals_path_on_each(what: &str, scenes: impl IntoIterator<Item = (String
 #[test]
 fn bdpt_equals_the_path_tracer_on_every_bundled_scene() {
     let size = 24;
-    let mut files = common::gltf_files(&common::root().join("scenes"));
-    files.extend(common::gltf_files(&common::root().join("scenes/hard")));
-    // 11 scenes in scenes/ and 24 in scenes/hard/ when this was written: a listing that
-    // found far fewer would be testing nothing.
-    assert!(files.len() >= 30, "found only {} scenes", files.len());
+    let files = common::bundled_scene_files();
     let scenes = files.iter().map(|file| {
         (file.file_stem().unwrap().to_string_lossy().into_owned(), common::flat_scene(file, size, size))
     });
@@ -104,28 +100,6 @@ fn bdpt_equals_the_path_tracer_on_every_bundled_scene() {
 )]
 fn bdpt_equals_the_path_tracer_on_every_khronos_model() {
     bdpt_equals_path_on_each("Khronos models", common::khronos_models(), 16);
-}
-
-/// Splits every triangle of `scene` into four, the new vertices pushed out onto the unit
-/// sphere: the 1,280-face icosphere of the furnace scenes, refined, is a sphere to within
-/// 1 − cos(face radius) — 8e-5 after two refinements (81,920 faces).
-fn refine_unit_sphere(scene: &mut Scene) {
-    let mut positions = Vec::with_capacity(scene.positions.len() * 4);
-    let mut materials = Vec::with_capacity(scene.triangle_materials.len() * 4);
-    for (tri, material) in scene.positions.chunks_exact(3).zip(&scene.triangle_materials) {
-        let [a, b, c] = [tri[0], tri[1], tri[2]];
-        let (ab, bc, ca) = ((a + b).normalize(), (b + c).normalize(), (c + a).normalize());
-        for t in [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]] {
-            positions.extend(t);
-            materials.push(*material);
-        }
-    }
-    let n = materials.len();
-    scene.positions = positions;
-    scene.triangle_materials = materials;
-    scene.normals = vec![None; n];
-    scene.texcoords = vec![Default::default(); n];
-    scene.tangents = vec![None; n];
 }
 
 /// pbrt-v4's furnace for BDPT: the camera inside a unit sphere of Lambertian albedo ½.
@@ -142,8 +116,8 @@ fn point_or_emitting_furnace(point_light: bool) {
         // Light-subpath vertices on a faceted sphere see the light at 1/h² (h < 1, the
         // facet's distance) times cos³ of the angle off its normal: refined, the facets'
         // bias is below 2e-4, far under the test's resolution below.
-        refine_unit_sphere(&mut scene);
-        refine_unit_sphere(&mut scene);
+        common::refine_unit_sphere(&mut scene);
+        common::refine_unit_sphere(&mut scene);
         scene.materials[m].emission = glam::Vec3::ZERO;
         scene.lights.push(pathlight::scene::PunctualLight {
             name: "centre".into(),

@@ -40,9 +40,7 @@ fn render(scene: &FlatScene, settings: &RenderSettings) -> Film {
 #[test]
 fn without_a_valid_record_the_path_tracer_is_unchanged_bit_for_bit() {
     let size = 12;
-    let mut files = common::gltf_files(&common::root().join("scenes"));
-    files.extend(common::gltf_files(&common::root().join("scenes/hard")));
-    assert!(files.len() >= 30, "found only {} scenes", files.len());
+    let files = common::bundled_scene_files();
     let empty = IrradianceCache::empty(IrradianceCacheSettings::default());
     let integrator = IntegratorSettings::default();
     for file in files {
@@ -92,9 +90,7 @@ const IMAGE_MEAN_BIAS_32PX: f64 = 0.04;
 #[test]
 fn equals_the_path_tracer_within_its_bias_on_every_bundled_scene() {
     let size = 32;
-    let mut files = common::gltf_files(&common::root().join("scenes"));
-    files.extend(common::gltf_files(&common::root().join("scenes/hard")));
-    assert!(files.len() >= 30, "found only {} scenes", files.len());
+    let files = common::bundled_scene_files();
     let mut failures = Vec::new();
     for file in files {
         let name = file.file_stem().unwrap().to_string_lossy().into_owned();

@@ -180,9 +180,7 @@ fn mlt_equals_path(
 #[test]
 fn mlt_equals_the_path_tracer_on_every_bundled_scene() {
     let size = 16;
-    let mut files = common::gltf_files(&common::root().join("scenes"));
-    files.extend(common::gltf_files(&common::root().join("scenes/hard")));
-    assert!(files.len() >= 30, "found only {} scenes", files.len());
+    let files = common::bundled_scene_files();
     let mut failures = Vec::new();
     for file in &files {
         let name = file.file_stem().unwrap().to_string_lossy().into_owned();
@@ -238,10 +236,10 @@ fn a_point_light_of_intensity_pi_in_a_sphere_of_albedo_half_gives_one_less_the_d
     let (mut scene, _) = pathlight::scene::load(&common::scene("furnace-0.5.gltf")).unwrap();
     let m = scene.triangle_materials[0] as usize;
     assert_eq!(scene.materials[m].base_color, glam::Vec3::splat(0.5));
-    // Refined twice, the facets' bias is below 2e-4 (tests/bdpt.rs, `refine_unit_sphere`),
+    // Refined twice, the facets' bias is below 2e-4 (`common::refine_unit_sphere`),
     // far below this test's resolution.
-    refine_unit_sphere(&mut scene);
-    refine_unit_sphere(&mut scene);
+    common::refine_unit_sphere(&mut scene);
+    common::refine_unit_sphere(&mut scene);
     scene.materials[m].emission = glam::Vec3::ZERO;
     scene.lights.push(pathlight::scene::PunctualLight {
         name: "centre".into(),
@@ -265,27 +263,6 @@ fn a_point_light_of_intensity_pi_in_a_sphere_of_albedo_half_gives_one_less_the_d
         assert!((mean - exact).abs() < 5.0 * se, "furnace: {mean:.5} ± {se:.5}, exact {exact:.5}");
         assert!(*se < 0.005, "furnace: standard error {se} is too large to test anything");
     }
-}
-
-/// Splits every triangle into four, the new vertices pushed onto the unit sphere (as in
-/// tests/bdpt.rs).
-fn refine_unit_sphere(scene: &mut pathlight::scene::Scene) {
-    let mut positions = Vec::with_capacity(scene.positions.len() * 4);
-    let mut materials = Vec::with_capacity(scene.triangle_materials.len() * 4);
-    for (tri, material) in scene.positions.chunks_exact(3).zip(&scene.triangle_materials) {
-        let [a, b, c] = [tri[0], tri[1], tri[2]];
-        let (ab, bc, ca) = ((a + b).normalize(), (b + c).normalize(), (c + a).normalize());
-        for t in [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]] {
-            positions.extend(t);
-            materials.push(*material);
-        }
-    }
-    let n = materials.len();
-    scene.positions = positions;
-    scene.triangle_materials = materials;
-    scene.normals = vec![None; n];
-    scene.texcoords = vec![Default::default(); n];
-    scene.tangents = vec![None; n];
 }
 
 /// The room lit through a slit (`scenes/slit-room.gltf`), where Metropolis should win: its

@@ -49,10 +49,7 @@ const SPPM_KNOWN_LEAKS: &[&str] = &["slit-room"];
 /// scene.
 fn equals_the_path_tracer_within_its_bias_on_every_bundled_scene(integrator: Integrator) {
     let size = 24;
-    let mut files = common::gltf_files(&common::root().join("scenes"));
-    files.extend(common::gltf_files(&common::root().join("scenes/hard")));
-    // 11 scenes in scenes/ and 24 in scenes/hard/ when this was written.
-    assert!(files.len() >= 30, "found only {} scenes", files.len());
+    let files = common::bundled_scene_files();
     let mut failures = Vec::new();
     for file in files {
         let name = file.file_stem().unwrap().to_string_lossy().into_owned();

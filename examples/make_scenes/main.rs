@@ -138,19 +138,18 @@ fn cornell_spheres(g: &mut Gltf) {
     g.mesh("glass sphere", &Mesh::icosphere([0.17, 0.1, 0.2], 0.1, 4, false, true), clear);
 }
 
-/// A room lit only by a lamp inside a shade facing the ceiling: a small disk emitter at the
-/// bottom of a deep, narrow cylindrical shade on a floor lamp. Its light leaves upward in a
-/// narrow cone, lights a spot on the ceiling, and reaches everything the camera sees only
-/// from there. A path tracer has to find that spot by chance from each wall point (its light
-/// samples are shadowed by the shade); light subpaths start there at once. The setting of
-/// issue 43's BDPT goal, all Lambertian so that Mitsuba 3 can render it too.
-fn lamp_shade_room(path: &Path) {
-    let mut g = Gltf::default();
-    let white = g.material(lambert("white walls", [0.75, 0.75, 0.72]));
-    let warm = g.material(lambert("warm wall", [0.7, 0.45, 0.3]));
-    let floor_m = g.material(lambert("floor", [0.45, 0.38, 0.3]));
-    let dark = g.material(lambert("lamp and furniture", [0.3, 0.3, 0.32]));
-    let lamp = g.material(emitter("lamp", [600.0, 500.0, 360.0], 0.0));
+/// The rooms' three materials: white walls and ceiling, the warm wall, the floor.
+fn room_materials(g: &mut Gltf) -> [usize; 3] {
+    [
+        g.material(lambert("white walls", [0.75, 0.75, 0.72])),
+        g.material(lambert("warm wall", [0.7, 0.45, 0.3])),
+        g.material(lambert("floor", [0.45, 0.38, 0.3])),
+    ]
+}
+
+/// The 5 m × 2.6 m × 5 m room of the lamp and slit rooms: walls and ceiling, the warm wall
+/// (−x) and the floor, facing in, with [`room_materials`]'s materials.
+fn room_shell(g: &mut Gltf, [white, warm, floor_m]: [usize; 3]) {
     let (x0, x1, y1, z0, z1) = (-2.5, 2.5, 2.6, -2.5, 2.5);
     let inside = [0.0, 1.3, 0.0];
     let mut walls = Mesh::default();
@@ -165,6 +164,21 @@ fn lamp_shade_room(path: &Path) {
     let mut floor = Mesh::default();
     floor.quad([[x0, 0.0, z0], [x1, 0.0, z0], [x1, 0.0, z1], [x0, 0.0, z1]], inside);
     g.mesh("floor", &floor, floor_m);
+}
+
+/// A room lit only by a lamp inside a shade facing the ceiling: a small disk emitter at the
+/// bottom of a deep, narrow cylindrical shade on a floor lamp. Its light leaves upward in a
+/// narrow cone, lights a spot on the ceiling, and reaches everything the camera sees only
+/// from there. A path tracer has to find that spot by chance from each wall point (its light
+/// samples are shadowed by the shade); light subpaths start there at once. The setting of
+/// issue 43's BDPT goal, all Lambertian so that Mitsuba 3 can render it too.
+fn lamp_shade_room(path: &Path) {
+    let mut g = Gltf::default();
+    let room = room_materials(&mut g);
+    let white = room[0];
+    let dark = g.material(lambert("lamp and furniture", [0.3, 0.3, 0.32]));
+    let lamp = g.material(emitter("lamp", [600.0, 500.0, 360.0], 0.0));
+    room_shell(&mut g, room);
     // A cabinet and a low table, for shadows; the floor lamp: a base, a pole, and a
     // 12-sided shade of radius 0.15 from y = 1.2 to 1.8, closed below, open above.
     let mut furniture = Mesh::default();
@@ -212,24 +226,10 @@ fn lamp_shade_room(path: &Path) {
 /// peers render it too.
 fn slit_room(path: &Path) {
     let mut g = Gltf::default();
-    let white = g.material(lambert("white walls", [0.75, 0.75, 0.72]));
-    let warm = g.material(lambert("warm wall", [0.7, 0.45, 0.3]));
-    let floor_m = g.material(lambert("floor", [0.45, 0.38, 0.3]));
+    let room = room_materials(&mut g);
+    let white = room[0];
     let lamp = g.material(emitter("lamp", [4000.0, 3400.0, 2500.0], 0.0));
-    let (x0, x1, y1, z0, z1) = (-2.5, 2.5, 2.6, -2.5, 2.5);
-    let inside = [0.0, 1.3, 0.0];
-    let mut walls = Mesh::default();
-    walls.quad([[x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1]], inside);
-    walls.quad([[x0, 0.0, z0], [x1, 0.0, z0], [x1, y1, z0], [x0, y1, z0]], inside);
-    walls.quad([[x1, 0.0, z0], [x1, 0.0, z1], [x1, y1, z1], [x1, y1, z0]], inside);
-    walls.quad([[x0, 0.0, z1], [x1, 0.0, z1], [x1, y1, z1], [x0, y1, z1]], inside);
-    g.mesh("walls and ceiling", &walls, white);
-    let mut left = Mesh::default();
-    left.quad([[x0, 0.0, z0], [x0, 0.0, z1], [x0, y1, z1], [x0, y1, z0]], inside);
-    g.mesh("warm wall", &left, warm);
-    let mut floor = Mesh::default();
-    floor.quad([[x0, 0.0, z0], [x1, 0.0, z0], [x1, 0.0, z1], [x0, 0.0, z1]], inside);
-    g.mesh("floor", &floor, floor_m);
+    room_shell(&mut g, room);
     // The box: 0.6 × 0.5 × 0.6 m, one surface (white on both sides), its lid in two halves
     // with the slit between them along z.
     let (bx0, bx1, by1, bz0, bz1) = (-1.2, -0.6, 0.5, -1.8, -1.2);

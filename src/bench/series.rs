@@ -52,6 +52,17 @@ impl Series {
         Some(log_lerp(t0, e0, t1, e1, seconds))
     }
 
+    /// Seconds to reach relMSE `error`, and whether that was extrapolated past the series'
+    /// end by the 1/t law of an unbiased renderer (it ended before getting there); `None`
+    /// for an empty series.
+    pub fn time_to_error_or_extrapolated(&self, error: f64) -> Option<(f64, bool)> {
+        if let Some(t) = self.time_to_error(error) {
+            return Some((t, false));
+        }
+        let (e, t) = self.last()?;
+        Some((t * e / error, true))
+    }
+
     /// The last checkpoint's relMSE and seconds.
     pub fn last(&self) -> Option<(f64, f64)> {
         self.points.last().map(|&(_, t, e)| (e, t))

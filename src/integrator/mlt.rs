@@ -423,25 +423,14 @@ pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
             let depth = depth_of(start);
             let mut sampler = sampler_for(start);
             let mut paths = Subpaths::new();
-            let mut current = State::of(strategy_sample(
-                &bdpt,
-                &mut sampler,
-                depth,
-                (width, height),
-                &mut paths,
-                &mut chain_stats.rays,
-            ));
+            let mut evaluate = |sampler: &mut MltSampler, rays: &mut u64| {
+                State::of(strategy_sample(&bdpt, sampler, depth, (width, height), &mut paths, rays))
+            };
+            let mut current = evaluate(&mut sampler, &mut chain_stats.rays);
             let mut splats = Vec::with_capacity(2 * n as usize);
             for _ in 0..n {
                 sampler.start_iteration();
-                let proposal = State::of(strategy_sample(
-                    &bdpt,
-                    &mut sampler,
-                    depth,
-                    (width, height),
-                    &mut paths,
-                    &mut chain_stats.rays,
-                ));
+                let proposal = evaluate(&mut sampler, &mut chain_stats.rays);
                 let accept =
                     if current.target > 0.0 { (proposal.target / current.target).min(1.0) } else { 1.0 };
                 if proposal.target > 0.0 && accept > 0.0 {
