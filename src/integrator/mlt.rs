@@ -68,8 +68,8 @@ pub const MAX_MLT_DEPTH: u32 = super::bdpt::BDPT_MAX_VERTICES as u32 - 1;
 /// chain has room to explore what it found.
 pub const DEFAULT_CHAIN_MUTATIONS: u32 = 1024;
 
-/// The most chains a pass runs.
-pub const MAX_CHAINS: u32 = 1 << 20;
+/// The most chains a pass runs (each holds its primary sample, about 1.5 KiB).
+pub const MAX_CHAINS: u32 = 1 << 16;
 
 /// Mutations per pixel per pass unless `--mutations-per-pixel` says otherwise.
 pub const DEFAULT_MUTATIONS_PER_PIXEL: u32 = 4;
@@ -352,6 +352,55 @@ impl State {
     }
 }
 
+/// Splats a pass holds at once, over all its chains (`mlt_pass`'s rounds): 32 MiB.
+const ROUND_SPLATS: u64 = 1 << 21;
+
+/// A Markov chain between rounds.
+struct Chain {
+    sampler: MltSampler,
+    /// Its start and its acceptances.
+    rng: Rng,
+    current: State,
+    depth: u32,
+    /// Mutations still to make in this pass.
+    remaining: u64,
+    /// Rays its first state traced.
+    start_rays: u64,
+}
+
+impl Chain {
+    /// `n` mutations: their expected-value splats (pixel, C · weight / T), and what they
+    /// counted.
+    fn run(&mut self, bdpt: &BdptContext, resolution: (u32, u32), n: u64) -> (Vec<(u32, Vec3)>, MltStats) {
+        let mut stats = MltStats::default();
+        let mut paths = Subpaths::new();
+        let mut splats = Vec::with_capacity(2 * n as usize);
+        for _ in 0..n {
+            self.sampler.start_iteration();
+            let sample =
+                strategy_sample(bdpt, &mut self.sampler, self.depth, resolution, &mut paths, &mut stats.rays);
+            let (proposal, current) = (State::of(sample), self.current);
+            let accept = if current.target > 0.0 { (proposal.target / current.target).min(1.0) } else { 1.0 };
+            if proposal.target > 0.0 && accept > 0.0 {
+                splats.push((proposal.pixel as u32, proposal.value * (accept / proposal.target)));
+            }
+            if current.target > 0.0 && accept < 1.0 {
+                splats.push((current.pixel as u32, current.value * ((1.0 - accept) / current.target)));
+            }
+            stats.proposed += 1;
+            if self.rng.next_1d() < accept {
+                self.current = proposal;
+                self.sampler.accept();
+                stats.accepted += 1;
+            } else {
+                self.sampler.reject();
+            }
+        }
+        self.remaining -= n;
+        (splats, stats)
+    }
+}
+
 /// Pass `pass`: an independent Metropolis estimate of the whole image (row-major, the
 /// film's layout), and what it counted.
 pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
@@ -410,54 +459,43 @@ pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
     let b = total / per_depth as f64;
 
     let chains = ctx.settings.chain_count(mutations);
-    type ChainResult = (Vec<(u32, Vec3)>, MltStats);
-    let results: Vec<ChainResult> = (0..chains)
+    let resolution = (width, height);
+    let mut states: Vec<Chain> = (0..chains)
         .into_par_iter()
         .map(|c| {
-            let mut chain_stats = MltStats::default();
             let mut rng = Rng::new(c as u32, MLT_CHAIN_STREAM, pass, ctx.seed);
-            let n = mutations / chains + u64::from(c < mutations % chains);
             // A start drawn in proportion to T.
             let u = rng.next_1d() as f64 * total;
             let start = (cdf.partition_point(|&x| x <= u) as u64).min(bootstrap - 1);
             let depth = depth_of(start);
             let mut sampler = sampler_for(start);
-            let mut paths = Subpaths::new();
-            let mut evaluate = |sampler: &mut MltSampler, rays: &mut u64| {
-                State::of(strategy_sample(&bdpt, sampler, depth, (width, height), &mut paths, rays))
-            };
-            let mut current = evaluate(&mut sampler, &mut chain_stats.rays);
-            let mut splats = Vec::with_capacity(2 * n as usize);
-            for _ in 0..n {
-                sampler.start_iteration();
-                let proposal = evaluate(&mut sampler, &mut chain_stats.rays);
-                let accept =
-                    if current.target > 0.0 { (proposal.target / current.target).min(1.0) } else { 1.0 };
-                if proposal.target > 0.0 && accept > 0.0 {
-                    splats.push((proposal.pixel as u32, proposal.value * (accept / proposal.target)));
-                }
-                if current.target > 0.0 && accept < 1.0 {
-                    splats.push((current.pixel as u32, current.value * ((1.0 - accept) / current.target)));
-                }
-                chain_stats.proposed += 1;
-                if rng.next_1d() < accept {
-                    current = proposal;
-                    sampler.accept();
-                    chain_stats.accepted += 1;
-                } else {
-                    sampler.reject();
-                }
-            }
-            (splats, chain_stats)
+            let mut rays = 0;
+            let sample =
+                strategy_sample(&bdpt, &mut sampler, depth, resolution, &mut Subpaths::new(), &mut rays);
+            let remaining = mutations / chains + u64::from(c < mutations % chains);
+            Chain { sampler, rng, current: State::of(sample), depth, remaining, start_rays: rays }
         })
         .collect();
+    for chain in &states {
+        stats.rays += chain.start_rays;
+    }
+    // The chains run in rounds of at most `per_round` mutations each, their splats summed
+    // in chain order after each round: memory stays bounded (about 2 splats of 16 bytes per
+    // mutation of a round) and the sum's order depends on the settings alone.
+    let per_round = (ROUND_SPLATS / (2 * chains)).max(1);
     let mut image = vec![[0.0f64; 3]; pixels];
-    for (splats, chain_stats) in results {
-        stats += chain_stats;
-        for (pixel, value) in splats {
-            let sum = &mut image[pixel as usize];
-            for (s, v) in sum.iter_mut().zip(value.to_array()) {
-                *s += v as f64;
+    while states.iter().any(|c| c.remaining > 0) {
+        let results: Vec<(Vec<(u32, Vec3)>, MltStats)> = states
+            .par_iter_mut()
+            .map(|chain| chain.run(&bdpt, resolution, per_round.min(chain.remaining)))
+            .collect();
+        for (splats, chain_stats) in results {
+            stats += chain_stats;
+            for (pixel, value) in splats {
+                let sum = &mut image[pixel as usize];
+                for (s, v) in sum.iter_mut().zip(value.to_array()) {
+                    *s += v as f64;
+                }
             }
         }
     }
