@@ -179,3 +179,38 @@ fn the_viewers_denoised_view_equals_a_headless_denoised_render() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The viewer shows Metropolis progressively, pass by pass, as it shows the path tracer:
+/// the frames' film equals a headless render of as many passes with the same seed.
+#[test]
+fn view_renders_metropolis_passes_equal_to_a_headless_render() {
+    let Some(mut view) = with_display() else { return };
+    let scene = common::scene("cornell-box.gltf");
+    let dir = std::env::temp_dir().join(format!("pathlight-view-mlt-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let args = [
+        scene.to_str().unwrap(),
+        "--integrator",
+        "mlt",
+        "--backend",
+        "cpu",
+        "--width",
+        "48",
+        "--height",
+        "48",
+    ];
+    view.arg("view").args(args).args(["--frames", "3", "--screenshot"]);
+    view.arg(dir.join("shot.png")).arg("-o").arg(dir.join("view.exr"));
+    let stderr = run(view);
+    assert!(stderr.contains("(3 spp)"), "{stderr}");
+    let mut headless = pathlight();
+    headless.arg("render").args(args).args(["--spp", "3", "-o"]).arg(dir.join("head.exr"));
+    run(headless);
+    let a = pathlight::film::read_exr(&dir.join("view.exr")).unwrap();
+    let b = pathlight::film::read_exr(&dir.join("head.exr")).unwrap();
+    for channel in ["R", "G", "B", "variance.R"] {
+        assert_eq!(a.channels[channel], b.channels[channel], "{channel} differs from the headless render");
+    }
+    assert!(a.channels["G"].iter().any(|&g| g > 0.0), "the view is black");
+    let _ = std::fs::remove_dir_all(&dir);
+}
