@@ -158,6 +158,14 @@ impl RenderSettings {
         self.splits > 1
     }
 
+    /// The depth bound paths are rendered with: `max_depth`, or where none is given the
+    /// integrator's own (Metropolis keeps one depth per chain, so it has one:
+    /// `integrator::mlt::DEFAULT_MLT_MAX_DEPTH`); `None`: unlimited.
+    pub fn max_depth_bound(&self) -> Option<u32> {
+        self.max_depth
+            .or((self.integrator == Integrator::Mlt).then_some(crate::integrator::mlt::DEFAULT_MLT_MAX_DEPTH))
+    }
+
     /// Checks the settings are renderable, with a message naming the one that is not.
     pub fn validate(&self) -> Result<()> {
         if self.width == 0 || self.height == 0 {

@@ -275,7 +275,7 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
                 "warning: mlt: the bootstrap of {} of {} passes found no path that carries light (up to --max-depth {}); their images are black",
                 mlt.passes_without_light,
                 mlt.passes,
-                session.settings.max_depth.unwrap_or(pathlight::integrator::mlt::DEFAULT_MLT_MAX_DEPTH)
+                session.settings.max_depth_bound().unwrap_or(u32::MAX)
             );
         }
     }

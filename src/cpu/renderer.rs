@@ -7,7 +7,7 @@ use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, Str
 use crate::integrator::delta_view::camera_sees_only_delta_surfaces;
 use crate::integrator::irradiance_cache::{IrradianceCache, IrradianceCacheContext, IrradianceCacheStats};
 use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
-use crate::integrator::mlt::{mlt_pass, MltContext, MltStats, DEFAULT_MLT_MAX_DEPTH};
+use crate::integrator::mlt::{mlt_pass, MltContext, MltStats};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
 use crate::integrator::photon::{photon_map_sample, PhotonMapSettings, PhotonMaps, DEFAULT_GATHER_PHOTONS};
 use crate::integrator::sppm::{sppm_film, sppm_pass, SppmContext, SppmPixel, SppmSettings, SppmStats};
@@ -57,9 +57,9 @@ pub struct CpuBackend<'a> {
     /// ([`camera_sees_only_delta_surfaces`]); decided per camera where light tracing or
     /// BDPT would make such joins.
     camera_sees_only_delta: bool,
-    /// Bidirectional path tracing: the sample values of every pixel for the sample index
-    /// last rendered (its splats land anywhere in the image, so a pass is rendered whole
-    /// before any band of it is added).
+    /// Bidirectional path tracing and Metropolis: the sample values of every pixel for the
+    /// sample index last rendered (their splats land anywhere in the image, so a pass is
+    /// rendered whole before any band of it is added).
     bdpt_pass: Option<(u32, Vec<glam::Vec3>)>,
     bdpt_stats: BdptStats,
     /// `--bdpt-strategies`: each strategy's weighted contributions summed over the passes
@@ -76,8 +76,7 @@ pub struct CpuBackend<'a> {
     /// The path tracer's irradiance cache, placed before its first sample for the current
     /// camera (`RenderSettings::irradiance_cache`).
     irradiance_cache: Option<IrradianceCache>,
-    /// What Metropolis's passes counted (a pass's image is kept in `bdpt_pass`, whole: its
-    /// splats land anywhere in the image too).
+    /// What Metropolis's passes counted.
     mlt_stats: MltStats,
 }
 
@@ -161,10 +160,7 @@ impl<'a> CpuBackend<'a> {
     fn integrator_settings(&self) -> IntegratorSettings {
         let s = &self.settings;
         IntegratorSettings {
-            max_depth: s.max_depth.unwrap_or(match s.integrator {
-                Integrator::Mlt => DEFAULT_MLT_MAX_DEPTH,
-                _ => u32::MAX,
-            }),
+            max_depth: s.max_depth_bound().unwrap_or(u32::MAX),
             rr_min_depth: s.rr_min_depth,
             splits: s.splits,
             caustics_by_light_tracing: self.light_traces_caustics(),

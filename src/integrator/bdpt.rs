@@ -384,16 +384,16 @@ pub fn bdpt_sample(
 ) {
     paths.light.clear();
     paths.camera.clear();
-    light_subpath(ctx, light_rng, &mut paths.light, rays, stats);
+    if light_subpath(ctx, light_rng, &mut paths.light, rays, SubpathLength::Roulette) {
+        stats.truncated += 1;
+    }
     let light = &paths.light[..];
     let wanted = |s: usize, t: usize| {
         ctx.depth_allowed(s, t) && ctx.only_strategy.is_none_or(|o| o == (s as u32, t as u32))
     };
 
     let camera = ctx.camera;
-    let mut x0 = Vertex::endpoint(Kind::Camera, ray.origin, Vec3::from(camera.forward), 0, Vec3::ONE, 1.0);
-    // An orthographic camera's direction is a delta: no strategy can join to it.
-    x0.delta = camera.projection != PROJECTION_PERSPECTIVE;
+    let x0 = camera_vertex(camera, &ray);
     paths.camera.push(Densities { fwd: 1.0, rev: 0.0, delta: x0.delta });
     for s in 2..=light.len() {
         if wanted(s, 1) {
@@ -431,6 +431,14 @@ pub fn bdpt_sample(
         paths.camera[t - 1].delta = v.delta;
         from = v;
     }
+}
+
+/// The camera subpath's first vertex x₀, where camera ray `ray` starts. An orthographic
+/// camera's direction is a delta: no strategy can join to it.
+fn camera_vertex(camera: &Camera, ray: &Ray) -> Vertex {
+    let mut x0 = Vertex::endpoint(Kind::Camera, ray.origin, Vec3::from(camera.forward), 0, Vec3::ONE, 1.0);
+    x0.delta = camera.projection != PROJECTION_PERSPECTIVE;
+    x0
 }
 
 /// The three streams of numbers one Metropolis sample draws from (pbrt-v4
@@ -492,8 +500,7 @@ pub(crate) fn strategy_sample(
     let pixel = py as usize * width as usize + px as usize;
 
     let camera = ctx.camera;
-    let mut x0 = Vertex::endpoint(Kind::Camera, ray.origin, Vec3::from(camera.forward), 0, Vec3::ONE, 1.0);
-    x0.delta = camera.projection != PROJECTION_PERSPECTIVE;
+    let x0 = camera_vertex(camera, &ray);
     paths.camera.push(Densities { fwd: 1.0, rev: 0.0, delta: x0.delta });
     // x_{t−2} and x_{t−1} (both x₀ when t = 1).
     let (mut before, mut end) = (x0, x0);
@@ -522,17 +529,9 @@ pub(crate) fn strategy_sample(
 
     numbers.start_stream(Stream::Light);
     if s >= 2 {
-        let (y0, mut walk) = light_subpath_origin(ctx.scene, numbers)?;
-        walk.roulette = false;
-        paths.light.push(y0);
-        while paths.light.len() < s {
-            let here = paths.light.len();
-            let mut v = walk.trace(ctx, numbers, &paths.light[here - 1], rays)?;
-            if here + 1 < s {
-                let rev = walk.scatter(ctx, numbers, &mut v, &paths.light[here - 1], here)?;
-                paths.light[here - 1].pdf_rev = rev;
-            }
-            paths.light.push(v);
+        light_subpath(ctx, numbers, &mut paths.light, rays, SubpathLength::Fixed(s));
+        if paths.light.len() != s {
+            return None;
         }
     }
 
@@ -793,27 +792,43 @@ impl Walk {
     }
 }
 
+/// How long a light subpath is.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum SubpathLength {
+    /// BDPT's own: Russian roulette ends it, or [`BDPT_MAX_VERTICES`] (a truncation).
+    Roulette,
+    /// Exactly this many vertices, or fewer where the walk cannot go on; no roulette
+    /// (Metropolis, [`strategy_sample`]).
+    Fixed(usize),
+}
+
 /// The light subpath y₀ …: a light chosen by power (the alias table), a point on it and a
 /// direction from it ([`light_subpath_origin`]), then a random walk carrying importance.
+/// Returns whether it would have gone on past [`BDPT_MAX_VERTICES`] and was ended there.
 fn light_subpath(
     ctx: &BdptContext,
-    rng: &mut Rng,
+    rng: &mut impl WalkNumbers,
     vertices: &mut Vec<Vertex>,
     rays: &mut u64,
-    stats: &mut BdptStats,
-) {
-    let Some((y0, mut walk)) = light_subpath_origin(ctx.scene, rng) else { return };
+    length: SubpathLength,
+) -> bool {
+    let Some((y0, mut walk)) = light_subpath_origin(ctx.scene, rng) else { return false };
+    walk.roulette = length == SubpathLength::Roulette;
     vertices.push(y0);
     loop {
         let here = vertices.len();
-        let Some(mut v) = walk.trace(ctx, rng, &vertices[here - 1], rays) else { return };
+        let Some(mut v) = walk.trace(ctx, rng, &vertices[here - 1], rays) else { return false };
+        if length == SubpathLength::Fixed(here + 1) {
+            // The last vertex: a join evaluates it, nothing scatters from it.
+            vertices.push(v);
+            return false;
+        }
         let rev = walk.scatter(ctx, rng, &mut v, &vertices[here - 1], here);
         vertices.push(v);
-        let Some(rev) = rev else { return };
+        let Some(rev) = rev else { return false };
         vertices[here - 1].pdf_rev = rev;
         if vertices.len() == BDPT_MAX_VERTICES {
-            stats.truncated += 1;
-            return;
+            return true;
         }
     }
 }

@@ -364,8 +364,6 @@ struct Chain {
     depth: u32,
     /// Mutations still to make in this pass.
     remaining: u64,
-    /// Rays its first state traced.
-    start_rays: u64,
 }
 
 impl Chain {
@@ -404,13 +402,13 @@ impl Chain {
 /// Pass `pass`: an independent Metropolis estimate of the whole image (row-major, the
 /// film's layout), and what it counted.
 pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
-    let (width, height) = (ctx.width, ctx.height);
-    let pixels = width as usize * height as usize;
+    let resolution = (ctx.width, ctx.height);
+    let pixels = ctx.width as usize * ctx.height as usize;
     let depths = ctx.integrator.max_depth.min(MAX_MLT_DEPTH) + 1;
     let mutations = ctx.settings.mutations_per_pixel as u64 * pixels as u64;
     let per_depth = ctx.settings.bootstrap_per_depth(mutations, depths);
     let bootstrap = per_depth * depths as u64;
-    let bdpt = BdptContext::new(ctx.scene, ctx.camera, ctx.integrator, width, height);
+    let bdpt = BdptContext::new(ctx.scene, ctx.camera, ctx.integrator, ctx.width, ctx.height);
     let p_large = ctx.settings.large_step_probability;
     let sampler_for =
         |i: u64| MltSampler::new(Rng::new(i as u32, MLT_BOOTSTRAP_STREAM, pass, ctx.seed), p_large);
@@ -428,14 +426,8 @@ pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
             let weights = range
                 .map(|i| {
                     let mut sampler = sampler_for(i);
-                    let sample = strategy_sample(
-                        &bdpt,
-                        &mut sampler,
-                        depth_of(i),
-                        (width, height),
-                        &mut paths,
-                        &mut rays,
-                    );
+                    let sample =
+                        strategy_sample(&bdpt, &mut sampler, depth_of(i), resolution, &mut paths, &mut rays);
                     State::of(sample).target
                 })
                 .collect();
@@ -459,8 +451,7 @@ pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
     let b = total / per_depth as f64;
 
     let chains = ctx.settings.chain_count(mutations);
-    let resolution = (width, height);
-    let mut states: Vec<Chain> = (0..chains)
+    let (mut states, start_rays): (Vec<Chain>, Vec<u64>) = (0..chains)
         .into_par_iter()
         .map(|c| {
             let mut rng = Rng::new(c as u32, MLT_CHAIN_STREAM, pass, ctx.seed);
@@ -473,12 +464,10 @@ pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
             let sample =
                 strategy_sample(&bdpt, &mut sampler, depth, resolution, &mut Subpaths::new(), &mut rays);
             let remaining = mutations / chains + u64::from(c < mutations % chains);
-            Chain { sampler, rng, current: State::of(sample), depth, remaining, start_rays: rays }
+            (Chain { sampler, rng, current: State::of(sample), depth, remaining }, rays)
         })
-        .collect();
-    for chain in &states {
-        stats.rays += chain.start_rays;
-    }
+        .unzip();
+    stats.rays += start_rays.iter().sum::<u64>();
     // The chains run in rounds of at most `per_round` mutations each, their splats summed
     // in chain order after each round: memory stays bounded (about 2 splats of 16 bytes per
     // mutation of a round) and the sum's order depends on the settings alone.
@@ -499,7 +488,6 @@ pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
             }
         }
     }
-    stats.passes = 1;
     let scale = b * pixels as f64 / mutations as f64;
     let image = image.iter().map(|s| Vec3::from(s.map(|v| (v * scale) as f32))).collect();
     (image, stats)

@@ -719,10 +719,7 @@ impl Session {
             film_state: self.shard,
             seed: self.settings.seed,
             integrator: self.settings.integrator,
-            max_depth: match self.settings.integrator {
-                Integrator::Mlt => Some(self.settings.max_depth.unwrap_or(crate::integrator::mlt::DEFAULT_MLT_MAX_DEPTH)),
-                _ => self.settings.max_depth,
-            },
+            max_depth: self.settings.max_depth_bound(),
             sampler: self.settings.sampler,
             splits: self.settings.splits,
             render_seconds: self.seconds,
