@@ -17,11 +17,9 @@
 //! table.
 
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
-use std::time::Instant;
 
 use pathlight::bench::series::Series;
-use pathlight::film::{error_against, LinearImage};
+use pathlight::film::LinearImage;
 use pathlight::integrator::irradiance_cache::IrradianceCacheSettings;
 use pathlight::session::{BackendChoice, Session, SessionOptions};
 
@@ -95,24 +93,7 @@ fn series(
 ) -> (Series, Option<pathlight::integrator::irradiance_cache::IrradianceCacheStats>) {
     let spp = 1 << 20;
     let mut session = Session::open(&options(args, spp, cache)).unwrap_or_else(|e| panic!("{e}"));
-    let mut s = Series { label: label.to_string(), points: Vec::new(), key: None };
-    let start = Instant::now();
-    let mut excluded = 0.0;
-    session
-        .render_to(spp, &AtomicBool::new(false), |backend, done| {
-            let elapsed = start.elapsed().as_secs_f64() - excluded;
-            if done.is_power_of_two() {
-                let t = Instant::now();
-                let film = backend.film()?;
-                let image = LinearImage::from_film(&film);
-                let e = error_against(&image, reference).1;
-                excluded += t.elapsed().as_secs_f64();
-                s.points.push((done, elapsed, e));
-                eprintln!("{label}: {done} spp, {elapsed:.2} s, relMSE {e:.3e}");
-            }
-            Ok(elapsed > seconds && done.is_power_of_two())
-        })
-        .unwrap();
+    let s = Series::of_session(&mut session, label, seconds, reference).unwrap_or_else(|e| panic!("{e}"));
     let stats = session.irradiance_cache_stats();
     let name =
         format!("{}-{}.csv", args.scene.file_stem().unwrap().to_string_lossy(), label.replace(' ', "-"));

@@ -17,11 +17,9 @@
 //! Metropolis at the same depth. Prints a markdown table; the series go to DIR as CSV.
 
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
-use std::time::Instant;
 
 use pathlight::bench::series::Series;
-use pathlight::film::{error_against, predicted_relmse, LinearImage};
+use pathlight::film::{predicted_relmse, LinearImage};
 use pathlight::integrator::mlt::MltSettings;
 use pathlight::integrator::Integrator;
 use pathlight::session::{BackendChoice, Session, SessionOptions};
@@ -97,23 +95,7 @@ fn series(
     }
     let label = integrator.name();
     let mut session = Session::open(&o).unwrap_or_else(|e| panic!("{e}"));
-    let mut s = Series { label: label.to_string(), points: Vec::new(), key: None };
-    let start = Instant::now();
-    let mut excluded = 0.0;
-    session
-        .render_to(spp, &AtomicBool::new(false), |backend, done| {
-            let elapsed = start.elapsed().as_secs_f64() - excluded;
-            if done.is_power_of_two() {
-                let t = Instant::now();
-                let film = backend.film()?;
-                let e = error_against(&LinearImage::from_film(&film), reference).1;
-                excluded += t.elapsed().as_secs_f64();
-                s.points.push((done, elapsed, e));
-                eprintln!("{label}: {done} spp, {elapsed:.2} s, relMSE {e:.3e}");
-            }
-            Ok(elapsed > seconds && done.is_power_of_two())
-        })
-        .unwrap();
+    let s = Series::of_session(&mut session, label, seconds, reference).unwrap_or_else(|e| panic!("{e}"));
     let acceptance = session.mlt_stats().map(|m| m.acceptance_rate());
     let name = format!("{}-{label}.csv", args.scene.file_stem().unwrap().to_string_lossy());
     std::fs::write(args.out.join(name), s.csv()).unwrap();

@@ -15,6 +15,37 @@ pub struct Series {
     pub key: Option<SeriesKey>,
 }
 
+impl Series {
+    /// `session` rendered progressively until `seconds` have passed, its relMSE against
+    /// `reference` taken at 1, 2, 4, … samples per pixel (the time spent measuring the
+    /// error left out of the series' times), and printed as it goes under `label`. The
+    /// session's spp bounds the render.
+    pub fn of_session(
+        session: &mut crate::session::Session,
+        label: &str,
+        seconds: f64,
+        reference: &crate::film::LinearImage,
+    ) -> crate::Result<Series> {
+        let mut s = Series { label: label.to_string(), points: Vec::new(), key: None };
+        let start = std::time::Instant::now();
+        let mut excluded = 0.0;
+        let spp = session.settings.spp;
+        session.render_to(spp, &std::sync::atomic::AtomicBool::new(false), |backend, done| {
+            let elapsed = start.elapsed().as_secs_f64() - excluded;
+            if done.is_power_of_two() {
+                let t = std::time::Instant::now();
+                let film = backend.film()?;
+                let e = crate::film::error_against(&crate::film::LinearImage::from_film(&film), reference).1;
+                excluded += t.elapsed().as_secs_f64();
+                s.points.push((done, elapsed, e));
+                eprintln!("{label}: {done} spp, {elapsed:.2} s, relMSE {e:.3e}");
+            }
+            Ok(elapsed > seconds && done.is_power_of_two())
+        })?;
+        Ok(s)
+    }
+}
+
 /// A pathlight series' backend, integrator and sampler: the integrator table pairs series
 /// that differ in the integrator alone.
 #[derive(Clone, Debug, PartialEq)]
