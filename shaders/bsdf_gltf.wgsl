@@ -194,6 +194,35 @@ fn has_lambert_lobe(b: GltfBsdf) -> bool {
     return b.p_diffuse > 0.0;
 }
 
+// Twin of `has_diffuse_lobe`: Lambert or sheen (where photon mapping gathers).
+fn has_diffuse_lobe(b: GltfBsdf) -> bool {
+    return b.p_diffuse > 0.0 || b.p_sheen > 0.0;
+}
+
+// Twin of `has_rough_transmission`: light reaches the point from either side.
+fn has_rough_transmission(b: GltfBsdf) -> bool {
+    return b.p_transmit > 0.0 && !b.transmission_is_delta;
+}
+
+// Twin of `non_delta_probability`: the probability that `gltf_bsdf_sample` chooses a
+// non-delta lobe.
+fn non_delta_probability(b: GltfBsdf) -> f32 {
+    if (b.lambertian) {
+        return 1.0;
+    }
+    var p = b.p_diffuse + b.p_sheen;
+    if (b.coat_alpha > 0.0) {
+        p += b.p_coat;
+    }
+    if (b.alpha > 0.0) {
+        p += b.p_reflect;
+    }
+    if (!b.transmission_is_delta) {
+        p += b.p_transmit;
+    }
+    return p;
+}
+
 // Twin of `eval_diffuse`: the Lambertian lobe's share of the BSDF, without the cosine.
 fn gltf_bsdf_eval_diffuse(b: GltfBsdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     if (wo.z <= 0.0 || wi.z <= 0.0) {

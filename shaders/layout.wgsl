@@ -146,6 +146,43 @@ struct FrameParams {
     ic_normal_scale: f32,
     ic_gradients: u32,
     ic_table_mask: u32,
+    sppm_photons: u32,
+    sppm_radius_pixels: f32,
+    sppm_slot_mask: u32,
+    sppm_record_capacity: u32,
+    sppm_footprint_width: f32,
+    sppm_footprint_spread: f32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// Twin of `SppmPixelGpu` (src/scene/layout.rs).
+struct SppmPixelGpu {
+    tau: vec3<f32>,
+    radius: f32,
+    direct: vec3<f32>,
+    photon_count: f32,
+}
+
+// Twin of `SppmVisiblePoint`.
+struct SppmVisiblePoint {
+    origin: vec3<f32>,
+    triangle: u32,
+    direction: vec3<f32>,
+    t: f32,
+    b: vec3<f32>,
+    cone_width: f32,
+    beta: vec3<f32>,
+    footprint: f32,
+    direct: vec3<f32>,
+    _pad0: u32,
+}
+
+// Twin of `SppmPhoton`: three vec4s, unpacked by `sppm_photon_*` in shaders/sppm.wgsl.
+struct SppmPhoton {
+    position_wi_x: vec4<f32>,
+    wi_yz_beta_rg: vec4<f32>,
+    beta_b_normal: vec4<f32>,
 }
 
 struct IrradianceRecordGpu {

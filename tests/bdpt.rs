@@ -1,6 +1,6 @@
 //! Bidirectional path tracing (issue 43) against the path tracer and against analytic
-//! answers. These run on the CPU backend: the GPU backend has no BDPT kernel yet and refuses
-//! `--integrator bdpt` with an error (tests/session.rs: `auto` picks the CPU for it).
+//! answers. These run on the CPU backend; its WGSL twin equals it to rounding for a seed
+//! (tests/gpu/bdpt.rs).
 
 mod common;
 

@@ -305,8 +305,7 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
         if sppm.dropped_photons > 0 {
             eprintln!(
                 "warning: sppm dropped {} photon records past the bound of {} per pass (the image is darker where they landed); lower --photons",
-                sppm.dropped_photons,
-                pathlight::integrator::sppm::MAX_PHOTON_RECORDS
+                sppm.dropped_photons, sppm.record_capacity
             );
         }
     }

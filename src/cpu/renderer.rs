@@ -180,14 +180,7 @@ impl SppmRender {
 impl CpuBackend<'_> {
     /// The photon passes' settings (`RenderSettings::photons`, `sppm_radius`).
     fn sppm_settings(&self) -> SppmSettings {
-        let s = &self.settings;
-        SppmSettings {
-            photons: s
-                .photons
-                .unwrap_or(s.width * s.height)
-                .min(crate::integrator::sppm::MAX_PHOTONS_PER_PASS),
-            radius_pixels: s.sppm_radius.unwrap_or(crate::integrator::sppm::DEFAULT_SPPM_RADIUS_PIXELS),
-        }
+        SppmSettings::of_render(&self.settings)
     }
 
     /// Photon-mapping pass `k`: the next pass, or the one just taken (a viewer asks for a

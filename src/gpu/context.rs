@@ -113,11 +113,15 @@ impl KernelKey {
 /// The compiled kernels for one [`KernelKey`].
 pub struct Kernel {
     pub key: KernelKey,
+    /// Each pass's per-pixel work: the path tracer's samples, bidirectional path tracing's
+    /// traced pass, photon mapping's visible points (`sppm_visible`).
     pub render: wgpu::ComputePipeline,
     pub first_hit: wgpu::ComputePipeline,
     /// Bidirectional path tracing's second pass (`bdpt_resolve` in shaders/bdpt.wgsl): adds
     /// a traced pass and its splats to the film. None for the path tracer.
     pub resolve: Option<wgpu::ComputePipeline>,
+    /// Photon mapping's passes after `render` (which traces its visible points).
+    pub sppm: Option<SppmPipelines>,
     /// Wall time to build the `render` pipeline (override specialisation, SPIR-V generation
     /// and the driver's compile).
     pub build_seconds: f64,
@@ -133,10 +137,35 @@ pub(crate) struct KernelModule {
     pipeline_layout: wgpu::PipelineLayout,
 }
 
-/// The kernel's bindings, 0 to 26 of group 0 (shaders/bindings.wgsl, src/gpu/tables.rs,
-/// 20, `bdpt_state` in shaders/bdpt.wgsl, which only that kernel declares, and 21 and 23,
-/// `aovs` and `aov_refine_list` in shaders/aov.wgsl; 24 to 26 the irradiance cache).
+/// The bindings every kernel has, 0 to 26 of group 0 (shaders/bindings.wgsl,
+/// src/gpu/tables.rs, 20, `bdpt_state` in shaders/bdpt.wgsl, which only that kernel
+/// declares, and 21 and 23, `aovs` and `aov_refine_list` in shaders/aov.wgsl; 24 to 26 the
+/// irradiance cache).
 const KERNEL_BINDINGS: u32 = 27;
+
+/// Photon mapping's own bindings, after those: 27 to 31 (shaders/sppm.wgsl).
+const SPPM_BINDINGS: u32 = 5;
+
+/// The bindings of `integrator`'s kernel.
+pub(crate) fn kernel_bindings(integrator: Integrator) -> u32 {
+    match integrator {
+        Integrator::Sppm => KERNEL_BINDINGS + SPPM_BINDINGS,
+        _ => KERNEL_BINDINGS,
+    }
+}
+
+/// Photon mapping's passes besides its visible points (`Kernel::render`), in the order a
+/// pass runs them (shaders/sppm.wgsl explains each).
+pub struct SppmPipelines {
+    pub trace_photons: wgpu::ComputePipeline,
+    pub grid_setup: wgpu::ComputePipeline,
+    pub grid_count: wgpu::ComputePipeline,
+    pub scan_blocks: wgpu::ComputePipeline,
+    pub scan_totals: wgpu::ComputePipeline,
+    pub scan_add: wgpu::ComputePipeline,
+    pub grid_scatter: wgpu::ComputePipeline,
+    pub gather: wgpu::ComputePipeline,
+}
 
 /// The AOV passes' pipelines (shaders/aov.wgsl): the first pass over bands of the image, and
 /// the refinement of a list of pixels.
@@ -270,9 +299,9 @@ impl GpuContext {
         // per-dispatch ones are storage buffers: lavapipe recompiles the kernel for every
         // re-bound uniform that steers its branches (see shaders/bindings.wgsl).
         // `film`, `first_hits`, `ray_counts`, `caustics`, `bdpt_state` and `aovs`, which the
-        // kernels write.
-        let read_write = [7, 8, 9, 19, 20, 21];
-        let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..KERNEL_BINDINGS)
+        // kernels write, and photon mapping's own.
+        let read_write = [7, 8, 9, 19, 20, 21, 27, 28, 29, 30, 31];
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..kernel_bindings(integrator))
             .map(|binding| {
                 let ty = if tables.is_uniform(binding) {
                     wgpu::BufferBindingType::Uniform
@@ -349,13 +378,30 @@ impl GpuContext {
             // Declared by the path tracer's files only (shaders/irradiance_cache.wgsl).
             constants.push(("IRRADIANCE_CACHE", if key.irradiance_cache { 1.0 } else { 0.0 }));
         }
-        let (render, build_seconds) = self.build_pipeline(&source, "render", &constants)?;
+        let render_entry = if key.integrator == Integrator::Sppm { "sppm_visible" } else { "render" };
+        let (render, build_seconds) = self.build_pipeline(&source, render_entry, &constants)?;
         let (first_hit, _) = self.build_pipeline(&source, "first_hit", &constants)?;
         let resolve = match key.integrator {
             Integrator::Bdpt => Some(self.build_pipeline(&source, "bdpt_resolve", &constants)?.0),
             Integrator::Path | Integrator::Sppm | Integrator::Photon | Integrator::Mlt => None,
         };
-        let kernel = Arc::new(Kernel { key, render, first_hit, resolve, build_seconds, source });
+        let sppm = match key.integrator {
+            Integrator::Sppm => {
+                let build = |entry: &str| self.build_pipeline(&source, entry, &constants).map(|(p, _)| p);
+                Some(SppmPipelines {
+                    trace_photons: build("sppm_trace_photons")?,
+                    grid_setup: build("sppm_grid_setup")?,
+                    grid_count: build("sppm_grid_count")?,
+                    scan_blocks: build("sppm_scan_blocks")?,
+                    scan_totals: build("sppm_scan_totals")?,
+                    scan_add: build("sppm_scan_add")?,
+                    grid_scatter: build("sppm_grid_scatter")?,
+                    gather: build("sppm_gather")?,
+                })
+            }
+            _ => None,
+        };
+        let kernel = Arc::new(Kernel { key, render, first_hit, resolve, sppm, build_seconds, source });
         cache.insert(key, kernel.clone());
         Ok(kernel)
     }
@@ -436,7 +482,17 @@ impl GpuContext {
         buffer: &wgpu::Buffer,
         timeout: std::time::Duration,
     ) -> Result<Vec<T>> {
-        let size = buffer.size();
+        self.read_buffer_range(buffer, 0..buffer.size(), timeout)
+    }
+
+    /// Bytes `range` of a GPU buffer (multiples of 4), copied back to the host.
+    pub(crate) fn read_buffer_range<T: bytemuck::Pod>(
+        &self,
+        buffer: &wgpu::Buffer,
+        range: std::ops::Range<u64>,
+        timeout: std::time::Duration,
+    ) -> Result<Vec<T>> {
+        let size = range.end - range.start;
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
             size,
@@ -445,7 +501,7 @@ impl GpuContext {
         });
         let mut encoder =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
-        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        encoder.copy_buffer_to_buffer(buffer, range.start, &staging, 0, size);
         let index = self.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
         staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {

@@ -120,6 +120,41 @@ pub struct GpuBackend {
     /// The scene's bounding sphere (`FrameParams::scene_center`).
     scene_center: [f32; 3],
     scene_radius: f32,
+    /// Photon mapping's buffers and passes (`--integrator sppm`), else None.
+    sppm: Option<SppmState>,
+}
+
+/// The grid words before its slots (`SPPM_HEADER_WORDS` in shaders/sppm.wgsl): this pass's
+/// records, the cell edge, photon rays, stored and dropped records as 64-bit totals, and
+/// from word [`SPPM_DISPATCH_WORD`] the record passes' workgroup counts.
+pub(crate) const SPPM_HEADER_WORDS: u64 = 12;
+pub(crate) const SPPM_DISPATCH_WORD: u64 = 8;
+/// Slots per block of the grid's prefix sum (`SPPM_SCAN_BLOCK`).
+pub(crate) const SPPM_SCAN_BLOCK: u32 = 256;
+
+/// A photon-mapping render's state on the device (shaders/sppm.wgsl's bindings 27 to 31,
+/// and the indirect dispatches' arguments) and its sizes.
+struct SppmState {
+    settings: crate::integrator::sppm::SppmSettings,
+    /// `SppmPixelGpu` per pixel.
+    pixels: wgpu::Buffer,
+    /// `SppmVisiblePoint` per pixel.
+    visible: wgpu::Buffer,
+    /// `SppmPhoton` per record of a pass.
+    photons: wgpu::Buffer,
+    /// The header, a word per slot, a word per block of slots.
+    grid: wgpu::Buffer,
+    /// Record indices sorted by slot.
+    order: wgpu::Buffer,
+    /// The record passes' workgroup counts (an indirect dispatch's arguments), copied from
+    /// the grid's header: not bound, since a dispatch may not read a buffer it binds for
+    /// storage as its indirect arguments.
+    dispatch: wgpu::Buffer,
+    /// Grid slots: a power of two from 256 to 2²³, about two per photon.
+    slots: u32,
+    record_capacity: u32,
+    /// Passes taken since the last reset.
+    passes: u32,
 }
 
 impl GpuBackend {
@@ -320,6 +355,62 @@ impl GpuBackend {
             read_only,
         )?;
         let ic_indices = storage("irradiance indices", bytemuck::bytes_of(&0u32), read_only)?;
+        let sppm = if settings.integrator == Integrator::Sppm {
+            let sppm = crate::integrator::sppm::SppmSettings::of_render(settings);
+            let limit = max_binding.min(max_buffer);
+            let record_bytes = std::mem::size_of::<crate::scene::layout::SppmPhoton>() as u64;
+            let integrator = crate::integrator::IntegratorSettings {
+                max_depth: settings.max_depth.unwrap_or(u32::MAX),
+                rr_min_depth: settings.rr_min_depth,
+                ..Default::default()
+            };
+            let pilot = crate::integrator::sppm::SppmContext {
+                scene,
+                camera: &scene.camera,
+                settings: &integrator,
+                sppm,
+                width: settings.width,
+                height: settings.height,
+                seed: settings.seed,
+                sampler: settings.sampler,
+                passes: settings.spp,
+            };
+            let record_capacity = (crate::integrator::sppm::gpu_record_capacity(&pilot) as u64)
+                .min(limit / record_bytes)
+                .max(1) as u32;
+            let slots = (2 * sppm.photons as u64).next_power_of_two().clamp(256, 1 << 23) as u32;
+            let grid_words = SPPM_HEADER_WORDS + slots as u64 + (slots / SPPM_SCAN_BLOCK) as u64;
+            let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+            let state = SppmState {
+                settings: sppm,
+                pixels: zeroed(
+                    "photon-mapping pixels",
+                    pixels * std::mem::size_of::<crate::scene::layout::SppmPixelGpu>() as u64,
+                )?,
+                visible: zeroed(
+                    "visible points",
+                    pixels * std::mem::size_of::<crate::scene::layout::SppmVisiblePoint>() as u64,
+                )?,
+                photons: zeroed("photon records", record_capacity as u64 * record_bytes)?,
+                grid: zeroed("photon grid", grid_words * 4)?,
+                order: zeroed("photon order", record_capacity as u64 * 4)?,
+                dispatch: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("photon dispatch"),
+                    size: 12,
+                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::INDIRECT,
+                    mapped_at_creation: false,
+                }),
+                slots,
+                record_capacity,
+                passes: 0,
+            };
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                return Err(Error::Gpu(format!("out of GPU memory for the photon passes: {e}")));
+            }
+            Some(state)
+        } else {
+            None
+        };
         let buffers = [
             &nodes,
             &triangles,
@@ -349,7 +440,12 @@ impl GpuBackend {
             &ic_cells,
             &ic_indices,
         ];
-        let bind_buffers: Vec<wgpu::Buffer> = buffers.iter().map(|b| (*b).clone()).collect();
+        let mut bind_buffers: Vec<wgpu::Buffer> = buffers.iter().map(|b| (*b).clone()).collect();
+        if let Some(state) = &sppm {
+            bind_buffers.extend(
+                [&state.pixels, &state.visible, &state.photons, &state.grid, &state.order].map(|b| b.clone()),
+            );
+        }
         let bind_group = Self::make_bind_group(device, &kernel, &bind_buffers);
         ctx.check()?;
         Ok(GpuBackend {
@@ -386,6 +482,7 @@ impl GpuBackend {
             ic_frame: (0.0, 0, 0),
             ic_scene: settings.irradiance_cache.is_some().then(|| scene.clone()),
             irradiance_cache: None,
+            sppm,
             ctx,
         })
     }
@@ -572,6 +669,99 @@ impl GpuBackend {
         self.caustic_pass = Some(pass);
     }
 
+    /// Queues photon-mapping pass `k` (shaders/sppm.wgsl's steps, in one submit): the pass's
+    /// record count and grid slots cleared, then visible points, photons, the grid, the
+    /// gathers. The next pass's dispatches read what this one wrote, in queue order.
+    fn submit_sppm_pass(&mut self, k: u32) -> Result<wgpu::SubmissionIndex> {
+        let state = self.sppm.as_ref().expect("a photon-mapping backend has its state");
+        let passes = self.kernel.sppm.as_ref().expect("the photon-mapping kernel has its passes");
+        if k != state.passes {
+            return Err(Error::Settings(format!(
+                "photon-mapping pass {k} asked for after {} passes: its passes depend on the ones before and run in order",
+                state.passes
+            )));
+        }
+        let (w, h) = (self.settings.width, self.settings.height);
+        let params = self.frame_params(k, 1, 0, h);
+        self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sppm pass") });
+        encoder.clear_buffer(&state.grid, 0, Some(4));
+        encoder.clear_buffer(&state.grid, SPPM_HEADER_WORDS * 4, Some(state.slots as u64 * 4));
+        let image = (w.div_ceil(WORKGROUP), h.div_ceil(WORKGROUP), 1);
+        let photon_rows = state.settings.photons.div_ceil(w);
+        let blocks = state.slots / SPPM_SCAN_BLOCK;
+        // Each step's workgroups, or None: as many as the pass stored records
+        // (`sppm_grid_setup` leaves the count in the grid's header, copied between the two
+        // compute passes).
+        type Steps<'a> = [(&'a wgpu::ComputePipeline, Option<(u32, u32, u32)>)];
+        let before_grid: &Steps = &[
+            (&self.kernel.render, Some(image)),
+            (&passes.trace_photons, Some((w.div_ceil(WORKGROUP), photon_rows.div_ceil(WORKGROUP), 1))),
+            (&passes.grid_setup, Some((1, 1, 1))),
+        ];
+        let grid_and_gather: &Steps = &[
+            (&passes.grid_count, None),
+            (&passes.scan_blocks, Some((blocks, 1, 1))),
+            (&passes.scan_totals, Some((1, 1, 1))),
+            (&passes.scan_add, Some((blocks, 1, 1))),
+            (&passes.grid_scatter, None),
+            (&passes.gather, Some(image)),
+        ];
+        for (i, steps) in [before_grid, grid_and_gather].into_iter().enumerate() {
+            if i == 1 {
+                encoder.copy_buffer_to_buffer(&state.grid, SPPM_DISPATCH_WORD * 4, &state.dispatch, 0, 12);
+            }
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("sppm"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            for &(pipeline, groups) in steps {
+                pass.set_pipeline(pipeline);
+                match groups {
+                    Some((x, y, z)) => pass.dispatch_workgroups(x, y, z),
+                    None => pass.dispatch_workgroups_indirect(&state.dispatch, 0),
+                }
+            }
+        }
+        let index = self.ctx.queue.submit([encoder.finish()]);
+        self.sppm.as_mut().expect("checked above").passes += 1;
+        Ok(index)
+    }
+
+    /// Photon mapping's [`Backend::render`]: pass after pass, up to [`MAX_IN_FLIGHT`] queued.
+    fn render_sppm(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
+        let mut in_flight: std::collections::VecDeque<wgpu::SubmissionIndex> = Default::default();
+        for k in sample_offset..sample_offset + samples {
+            in_flight.push_back(self.submit_sppm_pass(k)?);
+            while in_flight.len() >= MAX_IN_FLIGHT {
+                self.wait(in_flight.pop_front().expect("non-empty"))?;
+            }
+        }
+        while let Some(index) = in_flight.pop_front() {
+            self.wait(index)?;
+        }
+        Ok(())
+    }
+
+    /// The grid's running totals: photon rays, stored and dropped records.
+    fn sppm_totals(&self) -> Result<Option<crate::integrator::sppm::SppmStats>> {
+        let Some(state) = &self.sppm else { return Ok(None) };
+        let words =
+            self.ctx.read_buffer_range::<u32>(&state.grid, 0..SPPM_HEADER_WORDS * 4, SUBMIT_TIMEOUT)?;
+        let total = |at: usize| words[at] as u64 | (words[at + 1] as u64) << 32;
+        Ok(Some(crate::integrator::sppm::SppmStats {
+            passes: state.passes as u64,
+            photon_rays: total(2),
+            stored_photons: total(4),
+            dropped_photons: total(6),
+            record_capacity: state.record_capacity as u64,
+        }))
+    }
+
     /// Seconds it took to build this backend's kernel.
     pub fn kernel_build_seconds(&self) -> f64 {
         self.kernel.build_seconds
@@ -609,6 +799,8 @@ impl GpuBackend {
     fn frame_params(&self, sample_offset: u32, samples: u32, row_offset: u32, row_count: u32) -> FrameParams {
         let cone =
             crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, self.settings.spp);
+        // One pixel's cone: photon mapping's footprint (`integrator::sppm::camera_path`).
+        let footprint = crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, 1);
         FrameParams {
             width: self.settings.width,
             height: self.settings.height,
@@ -632,6 +824,14 @@ impl GpuBackend {
             ic_normal_scale: self.ic_frame.0,
             ic_gradients: self.ic_frame.1,
             ic_table_mask: self.ic_frame.2,
+            sppm_photons: self.sppm.as_ref().map_or(0, |s| s.settings.photons),
+            sppm_radius_pixels: self.sppm.as_ref().map_or(0.0, |s| s.settings.radius_pixels),
+            sppm_slot_mask: self.sppm.as_ref().map_or(0, |s| s.slots - 1),
+            sppm_record_capacity: self.sppm.as_ref().map_or(0, |s| s.record_capacity),
+            sppm_footprint_width: footprint.width,
+            sppm_footprint_spread: footprint.spread,
+            _pad0: 0,
+            _pad1: 0,
         }
     }
 
@@ -821,6 +1021,9 @@ impl Backend for GpuBackend {
         if self.settings.integrator == Integrator::Bdpt {
             return self.render_bdpt(sample_offset, samples);
         }
+        if self.sppm.is_some() {
+            return self.render_sppm(sample_offset, samples);
+        }
         let (w, h) = (self.settings.width, self.settings.height);
         // (submission, pixel-samples of work, time submitted)
         let mut in_flight: std::collections::VecDeque<(wgpu::SubmissionIndex, f64, Instant)> =
@@ -907,7 +1110,15 @@ impl Backend for GpuBackend {
 
     fn film(&mut self) -> Result<Film> {
         let pixels = self.read_back::<FilmPixel>(&self.film)?;
-        Ok(Film { width: self.settings.width, height: self.settings.height, pixels })
+        let film = Film { width: self.settings.width, height: self.settings.height, pixels };
+        let Some(state) = &self.sppm else { return Ok(film) };
+        // The film holds the per-pass estimates; the image is the progressive estimate.
+        let states: Vec<crate::integrator::sppm::SppmPixel> = self
+            .read_back::<crate::scene::layout::SppmPixelGpu>(&state.pixels)?
+            .into_iter()
+            .map(Into::into)
+            .collect();
+        Ok(crate::integrator::sppm::sppm_film(&film, &states, state.passes, state.settings.photons))
     }
 
     fn rays_traced(&mut self) -> Result<u64> {
@@ -915,7 +1126,13 @@ impl Backend for GpuBackend {
         // The cache's gathers were traced on the host.
         let cache_rays =
             self.irradiance_cache.as_ref().map_or(0, |c| c.stats.gather_rays + c.stats.overture_rays);
-        Ok(self.rays_folded + cache_rays)
+        let photon_rays = self.sppm_totals()?.map_or(0, |s| s.photon_rays);
+        Ok(self.rays_folded + cache_rays + photon_rays)
+    }
+
+    fn sppm_stats(&mut self) -> Option<crate::integrator::sppm::SppmStats> {
+        // A read-back failure is reported by the next render or read of the film.
+        self.sppm_totals().ok().flatten()
     }
 
     fn render_rows(&mut self, sample_index: u32, rows: std::ops::Range<u32>) -> Result<()> {
@@ -927,6 +1144,15 @@ impl Backend for GpuBackend {
         // One sample per pixel of the band; counted once per full pass for the fold bound.
         if rows.start == 0 {
             self.fold_rays_before(self.ray_bound_per_sample())?;
+        }
+        if let Some(state) = &self.sppm {
+            // The whole pass is taken for its first band (its photons land anywhere); the
+            // other bands of the same pass have nothing left to do.
+            if sample_index + 1 == state.passes {
+                return Ok(());
+            }
+            let index = self.submit_sppm_pass(sample_index)?;
+            return self.wait(index);
         }
         if self.settings.integrator == Integrator::Bdpt {
             // The whole pass is traced for its first band (its splats land anywhere), in
@@ -952,6 +1178,11 @@ impl Backend for GpuBackend {
         encoder.clear_buffer(&self.film, 0, None);
         encoder.clear_buffer(&self.ray_counts, 0, None);
         encoder.clear_buffer(&self.bdpt_state, 0, Some(16));
+        if let Some(state) = &mut self.sppm {
+            encoder.clear_buffer(&state.pixels, 0, None);
+            encoder.clear_buffer(&state.grid, 0, Some(SPPM_HEADER_WORDS * 4));
+            state.passes = 0;
+        }
         let index = self.ctx.queue.submit([encoder.finish()]);
         self.wait(index)?;
         self.rays_folded = 0;

@@ -42,8 +42,21 @@ const PATH_FILES: &[ShaderFile] = &[
     ("light_tracing.wgsl", include_str!("../../shaders/light_tracing.wgsl")),
 ];
 
+/// The subpaths' vertices and walks, which bidirectional path tracing joins and photon
+/// mapping walks photons with (`src/integrator/bdpt.rs`'s subpath half).
+const BDPT_WALK: ShaderFile = ("bdpt_walk.wgsl", include_str!("../../shaders/bdpt_walk.wgsl"));
+
 /// Bidirectional path tracing's entry points (`render`, `bdpt_resolve`).
-const BDPT_FILES: &[ShaderFile] = &[("bdpt.wgsl", include_str!("../../shaders/bdpt.wgsl"))];
+const BDPT_FILES: &[ShaderFile] = &[BDPT_WALK, ("bdpt.wgsl", include_str!("../../shaders/bdpt.wgsl"))];
+
+/// Stochastic progressive photon mapping's passes (shaders/sppm.wgsl): its camera paths use
+/// the path tracer's next-event estimation (and so its files), its photons the subpath walk.
+const SPPM_FILES: &[ShaderFile] = &[
+    ("irradiance_cache.wgsl", include_str!("../../shaders/irradiance_cache.wgsl")),
+    ("path.wgsl", include_str!("../../shaders/path.wgsl")),
+    BDPT_WALK,
+    ("sppm.wgsl", include_str!("../../shaders/sppm.wgsl")),
+];
 
 /// The files that follow [`COMMON_FILES`] in `integrator`'s kernel: its WGSL twins, named as
 /// its CPU half in `src/integrator/` is.
@@ -51,9 +64,10 @@ pub fn integrator_files(integrator: Integrator) -> &'static [ShaderFile] {
     match integrator {
         Integrator::Path => PATH_FILES,
         Integrator::Bdpt => BDPT_FILES,
+        Integrator::Sppm => SPPM_FILES,
         // No kernel yet (`Integrator::has_gpu_kernel`): `GpuContext` refuses it before any
         // source is composed.
-        Integrator::Sppm | Integrator::Photon | Integrator::Mlt => &[],
+        Integrator::Photon | Integrator::Mlt => &[],
     }
 }
 
@@ -269,6 +283,29 @@ mod tests {
         assert!(ring > max_vertices && (ring as u32).is_power_of_two(), "BDPT_CAMERA_RING {ring} too small");
         for (name, value) in shared {
             assert_eq!(constant(name), *value, "constant {name}: WGSL vs Rust");
+        }
+        let sppm_files = kernel_files(Integrator::Sppm);
+        let sppm =
+            parse_and_validate(&kernel_source(Integrator::Sppm, UniformTables::default()), &sppm_files)
+                .unwrap();
+        let sppm_constant = |name: &str| -> f64 {
+            let (_, c) = sppm.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name)).unwrap();
+            match sppm.global_expressions[c.init] {
+                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
+                naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
+                ref other => panic!("{name}: unexpected initializer {other:?}"),
+            }
+        };
+        use crate::integrator::sppm;
+        for (name, value) in [
+            ("SPPM_ALPHA", sppm::SPPM_ALPHA as f64),
+            ("PHOTON_STREAM", sppm::PHOTON_STREAM as f64),
+            ("NORMAL_AGREEMENT", sppm::NORMAL_AGREEMENT as f64),
+            ("SPPM_HEADER_WORDS", crate::gpu::renderer::SPPM_HEADER_WORDS as f64),
+            ("SPPM_DISPATCH", crate::gpu::renderer::SPPM_DISPATCH_WORD as f64),
+            ("SPPM_SCAN_BLOCK", crate::gpu::renderer::SPPM_SCAN_BLOCK as f64),
+        ] {
+            assert_eq!(sppm_constant(name), value, "constant {name}: WGSL vs Rust");
         }
     }
 }

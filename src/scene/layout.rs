@@ -343,7 +343,7 @@ pub const PROJECTION_PERSPECTIVE: u32 = 0;
 pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
 
 gpu_struct! {
-    /// What one dispatch computes, 80 bytes.
+    /// What one dispatch computes, 128 bytes.
     pub struct FrameParams {
         pub width: u32,
         pub height: u32,
@@ -392,6 +392,69 @@ gpu_struct! {
         pub ic_gradients: u32,
         /// The cache's hash table of cells has `ic_table_mask + 1` slots (a power of two).
         pub ic_table_mask: u32,
+        /// Stochastic progressive photon mapping (shaders/sppm.wgsl): photons per pass.
+        pub sppm_photons: u32,
+        /// Its initial radius in pixel footprints.
+        pub sppm_radius_pixels: f32,
+        /// Its photon grid has `sppm_slot_mask + 1` slots (a power of two, at least 256).
+        pub sppm_slot_mask: u32,
+        /// The photon records a pass may keep (`sppm_photons` holds as many).
+        pub sppm_record_capacity: u32,
+        /// One pixel's camera ray cone (a one-sample render's): a visible point's footprint.
+        pub sppm_footprint_width: f32,
+        pub sppm_footprint_spread: f32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// A pixel's progressive photon-mapping state on the GPU (`integrator::sppm::SppmPixel`;
+    /// WGSL `sppm_pixels` in shaders/sppm.wgsl). 32 bytes.
+    pub struct SppmPixelGpu {
+        /// τ: the flux gathered so far, scaled to the current radius.
+        pub tau: [f32; 3],
+        /// The gather radius; 0 until the pixel's first visible point sets it.
+        pub radius: f32,
+        /// Σ over passes of the light that needs no photons.
+        pub direct: [f32; 3],
+        /// N: the photon count the radius stands for.
+        pub photon_count: f32,
+    }
+}
+
+gpu_struct! {
+    /// A pixel's camera path of one photon-mapping pass on the GPU (`integrator::sppm::
+    /// CameraPath`): the light that needs no photons and the visible point, kept as the ray
+    /// and hit that made it (the gather builds its interaction and BSDF again, with the
+    /// same operations and so the same bits); `triangle` INVALID_INDEX: none. 80 bytes.
+    pub struct SppmVisiblePoint {
+        pub origin: [f32; 3],
+        pub triangle: u32,
+        pub direction: [f32; 3],
+        pub t: f32,
+        /// The hit's barycentrics.
+        pub b: [f32; 3],
+        /// The ray cone's width there (texture level of detail).
+        pub cone_width: f32,
+        /// The camera path's throughput over the probability of the non-delta choice.
+        pub beta: [f32; 3],
+        /// One pixel's footprint there.
+        pub footprint: f32,
+        pub direct: [f32; 3],
+        pub _pad0: u32,
+    }
+}
+
+gpu_struct! {
+    /// One photon record on the GPU (`integrator::sppm::Photon`), its twelve numbers packed
+    /// in three vec4s (48 bytes, as on the CPU): position and ω.x; ω.y, ω.z, β.r, β.g;
+    /// β.b and the geometric normal (ω: back along the last segment; β: flux before the
+    /// division by the pass's photon count).
+    pub struct SppmPhoton {
+        pub position_wi_x: [f32; 4],
+        pub wi_yz_beta_rg: [f32; 4],
+        pub beta_b_normal: [f32; 4],
     }
 }
 
@@ -536,6 +599,9 @@ pub fn all_layouts() -> Vec<StructLayout> {
         entry::<FrameParams>(),
         entry::<IrradianceRecordGpu>(),
         entry::<IrradianceCell>(),
+        entry::<SppmPixelGpu>(),
+        entry::<SppmVisiblePoint>(),
+        entry::<SppmPhoton>(),
         entry::<FilmPixel>(),
         entry::<FirstHit>(),
         entry::<PixelAov>(),

@@ -217,7 +217,9 @@ fn make_backend(
     Ok(match gpu {
         Some(ctx) => {
             let backend = GpuBackend::new(ctx.clone(), flat, settings)?;
-            let film = backend.film_buffer().clone();
+            // Photon mapping's film holds its per-pass estimates, not its image
+            // (`integrator::sppm`): a display reads the image back instead.
+            let film = (settings.integrator != Integrator::Sppm).then(|| backend.film_buffer().clone());
             let detail = format!(
                 "kernel specialised to [{}], {}, built in {:.2} s, scene uploaded in {:.3} s",
                 flat.features.describe(),
@@ -225,7 +227,7 @@ fn make_backend(
                 backend.kernel_build_seconds(),
                 backend.upload_seconds
             );
-            (Box::new(backend), Some(film), Some(detail))
+            (Box::new(backend), film, Some(detail))
         }
         None => (Box::new(CpuBackend::shared(flat.clone(), settings)), None, None),
     })

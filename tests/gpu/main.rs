@@ -6,6 +6,7 @@ mod bdpt;
 #[path = "../common/mod.rs"]
 mod common;
 mod kernel_variants;
+mod sppm;
 mod textures;
 
 use std::path::PathBuf;

@@ -93,7 +93,7 @@ fn wrap_mode_scene() -> pathlight::scene::FlatScene {
 }
 
 /// The textured Khronos models, under the studio map.
-fn khronos_textured_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
+pub(super) fn khronos_textured_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
     let assets = common::assets();
     let mut out = Vec::new();
     for model in [
