@@ -152,8 +152,12 @@ struct FrameParams {
     sppm_record_capacity: u32,
     sppm_footprint_width: f32,
     sppm_footprint_spread: f32,
-    _pad0: u32,
-    _pad1: u32,
+    photon_grid_base: u32,
+    photon_record_base: u32,
+    photon_kind: u32,
+    photon_cell: f32,
+    photon_global_radius: f32,
+    photon_caustic_photons: u32,
 }
 
 // Twin of `SppmPixelGpu` (src/scene/layout.rs).

@@ -75,8 +75,22 @@ fn sppm_add_u64(word: u32, value: u32) {
     }
 }
 
-fn sppm_cell_edge() -> f32 {
-    return bitcast<f32>(atomicLoad(&sppm_grid[SPPM_CELL]));
+// A photon map in the shared buffers: its grid's first word in `sppm_grid` (its header,
+// slots and block sums follow) and its first record in `sppm_photons` (its run of
+// `sppm_order` starts there too). SPPM has one, at (0, 0); the photon-map integrator
+// (shaders/photon.wgsl) a global and a caustic one.
+struct SppmMap {
+    grid: u32,
+    records: u32,
+}
+
+// The map a build dispatch writes (`frame.photon_grid_base`, `frame.photon_record_base`).
+fn sppm_current_map() -> SppmMap {
+    return SppmMap(frame.photon_grid_base, frame.photon_record_base);
+}
+
+fn sppm_cell_edge(map: SppmMap) -> f32 {
+    return bitcast<f32>(atomicLoad(&sppm_grid[map.grid + SPPM_CELL]));
 }
 
 // Twin of `PhotonGrid::cell_of` (f32 to i32 saturates in WGSL as `as i32` does in Rust).
@@ -92,19 +106,30 @@ fn sppm_slot(c: vec3<i32>) -> u32 {
 
 // The word of slot s in `sppm_grid`: its count, then (after the scan) its run's start, then
 // (after the scatter) its run's end.
-fn sppm_slot_word(s: u32) -> u32 {
-    return SPPM_HEADER_WORDS + s;
+fn sppm_slot_word(map: SppmMap, s: u32) -> u32 {
+    return map.grid + SPPM_HEADER_WORDS + s;
 }
 
 // The word of the scan's block `b` sum, after the slots.
-fn sppm_block_word(b: u32) -> u32 {
-    return SPPM_HEADER_WORDS + frame.sppm_slot_mask + 1u + b;
+fn sppm_block_word(map: SppmMap, b: u32) -> u32 {
+    return map.grid + SPPM_HEADER_WORDS + frame.sppm_slot_mask + 1u + b;
 }
 
-// Twin of `camera_path` with `bsdf_sampled_emission` at the visible point.
-fn sppm_camera_path(x: u32, y: u32, k: u32) -> SppmVisiblePoint {
-    var out: SppmVisiblePoint;
-    out.triangle = INVALID_INDEX;
+// A pixel's camera path up to its visible point: the point (`triangle` INVALID_INDEX where
+// there is none), and the visible point's own BSDF sample with the throughput before it,
+// for what the caller adds along that sample (`at_visible_point` in the CPU twin).
+struct SppmCameraPath {
+    point: SppmVisiblePoint,
+    throughput: vec3<f32>,
+    bs: BsdfSample,
+}
+
+// Twin of `camera_path` but for the `at_visible_point` call, which the caller makes on its
+// return (no number is drawn in between): `sppm_bsdf_sampled_emission` for SPPM, the final
+// gather for the photon-map integrator.
+fn sppm_camera_path(x: u32, y: u32, k: u32) -> SppmCameraPath {
+    var path: SppmCameraPath;
+    path.point.triangle = INVALID_INDEX;
     sampler_start(frame.sampler_kind, x, y, k, frame.seed);
     var ray = generate_camera_ray(frame.width, frame.height, x, y, rng_next_2d());
     var beta = vec3<f32>(1.0);
@@ -159,30 +184,19 @@ fn sppm_camera_path(x: u32, y: u32, k: u32) -> SppmVisiblePoint {
             break;
         }
         if (!bs.is_delta && has_diffuse_lobe(bsdf)) {
-            // Twin of `bsdf_sampled_emission`.
-            let wi_world = normalize(frame_from_local(si.frame, bs.wi));
-            if (sides_agree(si, wi_world, bs.wi)) {
-                let emission_ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
-                var seed = 0u;
-                if (FEATURE_ALPHA) {
-                    seed = rng_next_u32();
-                }
-                let emission_hit = intersect_closest(emission_ray, seed);
-                direct += beta * bs.weight * sppm_mis_weighted_emission(emission_ray, emission_hit, bs.pdf_solid_angle);
-            }
-            let visible_beta = beta / non_delta_probability(bsdf);
-            if (is_finite_vec3(beta)) {
-                out.origin = ray.origin;
-                out.triangle = hit.triangle;
-                out.direction = ray.direction;
-                out.t = hit.t;
-                out.b = hit.b;
-                out.cone_width = cone_width;
-                out.beta = visible_beta;
-                out.footprint = frame.sppm_footprint_width + frame.sppm_footprint_spread * travelled;
-            }
-            out.direct = direct;
-            return out;
+            // (The throughput is finite here: a bounce that made it otherwise returned.)
+            path.point.origin = ray.origin;
+            path.point.triangle = hit.triangle;
+            path.point.direction = ray.direction;
+            path.point.t = hit.t;
+            path.point.b = hit.b;
+            path.point.cone_width = cone_width;
+            path.point.beta = beta / non_delta_probability(bsdf);
+            path.point.footprint = frame.sppm_footprint_width + frame.sppm_footprint_spread * travelled;
+            path.point.direct = direct;
+            path.throughput = beta;
+            path.bs = bs;
+            return path;
         }
         let wi_world = normalize(frame_from_local(si.frame, bs.wi));
         if (!sides_agree(si, wi_world, bs.wi)) {
@@ -191,8 +205,8 @@ fn sppm_camera_path(x: u32, y: u32, k: u32) -> SppmVisiblePoint {
         beta *= bs.weight;
         eta_scale *= bs.eta_scale;
         if (!is_finite_vec3(beta)) {
-            out.direct = poison();
-            return out;
+            path.point.direct = poison();
+            return path;
         }
         prev_delta = bs.is_delta;
         prev_pdf = bs.pdf_solid_angle;
@@ -208,8 +222,38 @@ fn sppm_camera_path(x: u32, y: u32, k: u32) -> SppmVisiblePoint {
             beta /= q;
         }
     }
-    out.direct = direct;
-    return out;
+    path.point.direct = direct;
+    return path;
+}
+
+// The surface interaction, material and BSDF of visible point `vp`, built again from its
+// ray and hit with the operations that first built them (the same bits).
+struct SppmSurface {
+    si: SurfaceInteraction,
+    bsdf: GltfBsdf,
+}
+
+fn sppm_surface(vp: SppmVisiblePoint) -> SppmSurface {
+    let ray = Ray(vp.origin, vp.direction, F32_MAX);
+    let si = surface_interaction(ray, ClosestHit(vp.triangle, vp.b, vp.t), vp.cone_width);
+    let material = textured_material(materials[si.material], si.uv, si.lod);
+    return SppmSurface(si, gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal));
+}
+
+// Twin of `bsdf_sampled_emission`: the emitter the visible point's own BSDF sample `bs`
+// sees (throughput `beta` before it), MIS-weighted against the light sample.
+fn sppm_bsdf_sampled_emission(si: SurfaceInteraction, bs: BsdfSample, beta: vec3<f32>) -> vec3<f32> {
+    let wi_world = normalize(frame_from_local(si.frame, bs.wi));
+    if (!sides_agree(si, wi_world, bs.wi)) {
+        return vec3<f32>(0.0);
+    }
+    let ray = spawn_ray(si.p, si.p_error, si.n_geometric, wi_world);
+    var seed = 0u;
+    if (FEATURE_ALPHA) {
+        seed = rng_next_u32();
+    }
+    let hit = intersect_closest(ray, seed);
+    return beta * bs.weight * sppm_mis_weighted_emission(ray, hit, bs.pdf_solid_angle);
 }
 
 // Twin of `mis_weighted_emission`.
@@ -248,7 +292,11 @@ fn sppm_visible(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let pixel = px.y * frame.width + px.x;
     rays_traced = 0u;
-    let vp = sppm_camera_path(px.x, px.y, frame.sample_offset);
+    let path = sppm_camera_path(px.x, px.y, frame.sample_offset);
+    var vp = path.point;
+    if (vp.triangle != INVALID_INDEX) {
+        vp.direct += sppm_bsdf_sampled_emission(sppm_surface(vp).si, path.bs, path.throughput);
+    }
     sppm_visible_points[pixel] = vp;
     // A pixel's first visible point sets its radius.
     if (vp.triangle != INVALID_INDEX && sppm_pixels[pixel].radius == 0.0) {
@@ -257,15 +305,18 @@ fn sppm_visible(@builtin(global_invocation_id) gid: vec3<u32>) {
     ray_counts[pixel] += rays_traced;
 }
 
-// Step 2: photon i = (row_offset + gid.y) · width + gid.x of the pass, for i below
-// `frame.sppm_photons` (twin of `trace_photons` with `PhotonKind::Indirect`).
+// Step 2: photon i = row · width + gid.x of the pass, for i below `frame.sppm_photons`
+// (twin of `trace_photons`), into the map `frame.photon_grid_base` and
+// `frame.photon_record_base` name, keeping the landings `frame.photon_kind` says. Rows past
+// a dispatch's 65,535 workgroups in y go on in its z layers.
 @compute @workgroup_size(8, 8, 1)
-fn sppm_trace_photons(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn sppm_trace_photons(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     load_dispatch_constants();
     if (gid.x >= frame.width) {
         return;
     }
-    let i = (gid.y + frame.row_offset) * frame.width + gid.x;
+    let row = gid.y + gid.z * groups.y * 8u;
+    let i = row * frame.width + gid.x;
     if (i >= frame.sppm_photons) {
         return;
     }
@@ -275,14 +326,23 @@ fn sppm_trace_photons(@builtin(global_invocation_id) gid: vec3<u32>) {
     sppm_add_u64(SPPM_PHOTON_RAYS, rays_traced);
 }
 
-// Twin of `trace_photon`: a photon at every surface with a non-delta lobe from the walk's
-// second landing on.
+// Twins of `PhotonKind`: which landings a map keeps (`frame.photon_kind`).
+const PHOTONS_INDIRECT: u32 = 0u;
+const PHOTONS_ALL: u32 = 1u;
+const PHOTONS_CAUSTIC: u32 = 2u;
+
+// Twin of `trace_photon`: a photon at every surface with a non-delta lobe that the map's
+// kind keeps, appended to the map this dispatch builds.
 fn sppm_trace_photon() {
+    let map = sppm_current_map();
+    let kind = frame.photon_kind;
     var prev: BdptVertex;
     var walk: BdptWalk;
     if (!bdpt_light_origin(&prev, &walk)) {
         return;
     }
+    // Every bounce so far was by a delta lobe.
+    var delta_so_far = true;
     for (var here = 1u; ; here++) {
         var v: BdptVertex;
         var si: SurfaceInteraction;
@@ -291,14 +351,25 @@ fn sppm_trace_photon() {
         if (!bdpt_trace(&walk, prev, &v, &si, &material, &bsdf)) {
             return;
         }
-        if (v.kind == VERTEX_SURFACE && here >= 2u && has_non_delta(bsdf) && is_finite_vec3(v.beta)) {
-            let record = atomicAdd(&sppm_grid[SPPM_RECORDS], 1u);
+        var kept = kind == PHOTONS_ALL;
+        if (kind == PHOTONS_INDIRECT) {
+            kept = here >= 2u;
+        } else if (kind == PHOTONS_CAUSTIC) {
+            kept = here >= 2u && delta_so_far;
+        }
+        if (v.kind == VERTEX_SURFACE && kept && has_non_delta(bsdf) && is_finite_vec3(v.beta)) {
+            let record = atomicAdd(&sppm_grid[map.grid + SPPM_RECORDS], 1u);
             if (record < frame.sppm_record_capacity) {
                 let wi = si.wo_world;
-                sppm_photons[record] = SppmPhoton(vec4<f32>(v.p, wi.x), vec4<f32>(wi.yz, v.beta.xy), vec4<f32>(v.beta.z, v.n));
+                sppm_photons[map.records + record] = SppmPhoton(vec4<f32>(v.p, wi.x), vec4<f32>(wi.yz, v.beta.xy), vec4<f32>(v.beta.z, v.n));
             }
         }
         if (bdpt_scatter(&walk, &v, si, bsdf, prev, here) < 0.0) {
+            return;
+        }
+        delta_so_far = delta_so_far && v.delta;
+        if (kind == PHOTONS_CAUSTIC && !delta_so_far) {
+            // No later landing can be a caustic's.
             return;
         }
         prev = v;
@@ -310,15 +381,18 @@ var<workgroup> sppm_radius_counts: array<u32, 256>;
 
 // Step 3, one workgroup: the cell edge, twice the mean radius of the pixels with a visible
 // point (twin of the CPU's `mean_radius`, summed in another order: the edge only sizes the
-// cells, and a gather reads every cell its disk overlaps whatever their size); the record
-// passes' workgroup counts; the pass's stored and dropped records.
+// cells, and a gather reads every cell its disk overlaps whatever their size), or
+// `frame.photon_cell` where the host gives one (the photon maps'); the record passes'
+// workgroup counts; the pass's stored and dropped records.
 @compute @workgroup_size(256, 1, 1)
 fn sppm_grid_setup(@builtin(local_invocation_index) lane: u32) {
     load_dispatch_constants();
     let pixels = frame.width * frame.height;
     var sum = 0.0;
     var count = 0u;
-    for (var i = lane; i < pixels; i += 256u) {
+    // The photon maps' cells are the host's; their kernel keeps no visible points.
+    let pixels_read = select(pixels, 0u, frame.photon_cell > 0.0);
+    for (var i = lane; i < pixels_read; i += 256u) {
         let radius = sppm_pixels[i].radius;
         if (sppm_visible_points[i].triangle != INVALID_INDEX && radius > 0.0) {
             sum += radius;
@@ -344,31 +418,36 @@ fn sppm_grid_setup(@builtin(local_invocation_index) lane: u32) {
                 cell = 2.0 * mean;
             }
         }
-        atomicStore(&sppm_grid[SPPM_CELL], bitcast<u32>(cell));
-        let records = atomicLoad(&sppm_grid[SPPM_RECORDS]);
+        if (frame.photon_cell > 0.0) {
+            cell = frame.photon_cell;
+        }
+        let map = sppm_current_map();
+        atomicStore(&sppm_grid[map.grid + SPPM_CELL], bitcast<u32>(cell));
+        let records = atomicLoad(&sppm_grid[map.grid + SPPM_RECORDS]);
         let stored = min(records, frame.sppm_record_capacity);
-        atomicStore(&sppm_grid[SPPM_RECORDS], stored);
+        atomicStore(&sppm_grid[map.grid + SPPM_RECORDS], stored);
         sppm_add_u64(SPPM_STORED, stored);
         sppm_add_u64(SPPM_DROPPED, records - stored);
-        atomicStore(&sppm_grid[SPPM_DISPATCH], max((stored + SPPM_RECORD_GROUP - 1u) / SPPM_RECORD_GROUP, 1u));
-        atomicStore(&sppm_grid[SPPM_DISPATCH + 1u], 1u);
-        atomicStore(&sppm_grid[SPPM_DISPATCH + 2u], 1u);
+        atomicStore(&sppm_grid[map.grid + SPPM_DISPATCH], max((stored + SPPM_RECORD_GROUP - 1u) / SPPM_RECORD_GROUP, 1u));
+        atomicStore(&sppm_grid[map.grid + SPPM_DISPATCH + 1u], 1u);
+        atomicStore(&sppm_grid[map.grid + SPPM_DISPATCH + 2u], 1u);
     }
 }
 
-fn sppm_record_count() -> u32 {
-    return atomicLoad(&sppm_grid[SPPM_RECORDS]);
+fn sppm_record_count(map: SppmMap) -> u32 {
+    return atomicLoad(&sppm_grid[map.grid + SPPM_RECORDS]);
 }
 
 // Step 4a: each stored photon counts itself in its cell's slot.
 @compute @workgroup_size(256, 1, 1)
 fn sppm_grid_count(@builtin(global_invocation_id) gid: vec3<u32>) {
     load_dispatch_constants();
-    if (gid.x >= sppm_record_count()) {
+    let map = sppm_current_map();
+    if (gid.x >= sppm_record_count(map)) {
         return;
     }
-    let c = sppm_cell_of(sppm_photon_p(sppm_photons[gid.x]), sppm_cell_edge());
-    atomicAdd(&sppm_grid[sppm_slot_word(sppm_slot(c))], 1u);
+    let c = sppm_cell_of(sppm_photon_p(sppm_photons[map.records + gid.x]), sppm_cell_edge(map));
+    atomicAdd(&sppm_grid[sppm_slot_word(map, sppm_slot(c))], 1u);
 }
 
 var<workgroup> sppm_scan: array<u32, 256>;
@@ -400,13 +479,14 @@ fn sppm_scan_workgroup(lane: u32, value: u32) -> u32 {
 @compute @workgroup_size(256, 1, 1)
 fn sppm_scan_blocks(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
     load_dispatch_constants();
+    let map = sppm_current_map();
     let s = group.x * SPPM_SCAN_BLOCK + lane;
-    let word = sppm_slot_word(s);
+    let word = sppm_slot_word(map, s);
     let count = atomicLoad(&sppm_grid[word]);
     let total = sppm_scan_workgroup(lane, count);
     atomicStore(&sppm_grid[word], sppm_scan[lane]);
     if (lane == 0u) {
-        atomicStore(&sppm_grid[sppm_block_word(group.x)], total);
+        atomicStore(&sppm_grid[sppm_block_word(map, group.x)], total);
     }
 }
 
@@ -415,18 +495,19 @@ fn sppm_scan_blocks(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invo
 @compute @workgroup_size(256, 1, 1)
 fn sppm_scan_totals(@builtin(local_invocation_index) lane: u32) {
     load_dispatch_constants();
+    let map = sppm_current_map();
     let blocks = (frame.sppm_slot_mask + 1u) / SPPM_SCAN_BLOCK;
     let per_lane = (blocks + 255u) / 256u;
     let first = min(lane * per_lane, blocks);
     let last = min(first + per_lane, blocks);
     var run = 0u;
     for (var b = first; b < last; b++) {
-        run += atomicLoad(&sppm_grid[sppm_block_word(b)]);
+        run += atomicLoad(&sppm_grid[sppm_block_word(map, b)]);
     }
     _ = sppm_scan_workgroup(lane, run);
     var start = sppm_scan[lane];
     for (var b = first; b < last; b++) {
-        let word = sppm_block_word(b);
+        let word = sppm_block_word(map, b);
         let total = atomicLoad(&sppm_grid[word]);
         atomicStore(&sppm_grid[word], start);
         start += total;
@@ -437,8 +518,9 @@ fn sppm_scan_totals(@builtin(local_invocation_index) lane: u32) {
 @compute @workgroup_size(256, 1, 1)
 fn sppm_scan_add(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
     load_dispatch_constants();
-    let word = sppm_slot_word(group.x * SPPM_SCAN_BLOCK + lane);
-    let block_start = atomicLoad(&sppm_grid[sppm_block_word(group.x)]);
+    let map = sppm_current_map();
+    let word = sppm_slot_word(map, group.x * SPPM_SCAN_BLOCK + lane);
+    let block_start = atomicLoad(&sppm_grid[sppm_block_word(map, group.x)]);
     atomicAdd(&sppm_grid[word], block_start);
 }
 
@@ -447,21 +529,23 @@ fn sppm_scan_add(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocat
 @compute @workgroup_size(256, 1, 1)
 fn sppm_grid_scatter(@builtin(global_invocation_id) gid: vec3<u32>) {
     load_dispatch_constants();
-    if (gid.x >= sppm_record_count()) {
+    let map = sppm_current_map();
+    if (gid.x >= sppm_record_count(map)) {
         return;
     }
-    let c = sppm_cell_of(sppm_photon_p(sppm_photons[gid.x]), sppm_cell_edge());
-    let place = atomicAdd(&sppm_grid[sppm_slot_word(sppm_slot(c))], 1u);
-    sppm_order[place] = gid.x;
+    let record = map.records + gid.x;
+    let c = sppm_cell_of(sppm_photon_p(sppm_photons[record]), sppm_cell_edge(map));
+    let place = atomicAdd(&sppm_grid[sppm_slot_word(map, sppm_slot(c))], 1u);
+    sppm_order[map.records + place] = record;
 }
 
-// The photons of slot s: `sppm_order[run.x..run.y]`.
-fn sppm_run(s: u32) -> vec2<u32> {
+// The photons of `map`'s slot s: `sppm_order[run.x..run.y]`.
+fn sppm_run(map: SppmMap, s: u32) -> vec2<u32> {
     var start = 0u;
     if (s > 0u) {
-        start = atomicLoad(&sppm_grid[sppm_slot_word(s - 1u)]);
+        start = atomicLoad(&sppm_grid[sppm_slot_word(map, s - 1u)]);
     }
-    return vec2<u32>(start, atomicLoad(&sppm_grid[sppm_slot_word(s)]));
+    return vec2<u32>(map.records + start, map.records + atomicLoad(&sppm_grid[sppm_slot_word(map, s)]));
 }
 
 // Φ (xyz) and M (w) of a gather.
@@ -502,12 +586,12 @@ fn sppm_photon_flux(i: u32, si: SurfaceInteraction, bsdf: GltfBsdf, r2: f32, tra
 // Twin of `PhotonGrid::gather`. Cells may share a slot: each cell's run is read, and a
 // photon counts only in its own cell, so that every photon within the radius (whose cell
 // lies in the range) counts once. A range with more cells than slots reads every slot.
-fn sppm_gather_photons(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> SppmGathered {
+fn sppm_gather_photons(map: SppmMap, si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> SppmGathered {
     var out = SppmGathered(vec3<f32>(0.0), 0u);
-    if (sppm_record_count() == 0u || radius <= 0.0) {
+    if (sppm_record_count(map) == 0u || radius <= 0.0) {
         return out;
     }
-    let cell = sppm_cell_edge();
+    let cell = sppm_cell_edge(map);
     let lo = sppm_cell_of(si.p - vec3<f32>(radius), cell);
     let hi = sppm_cell_of(si.p + vec3<f32>(radius), cell);
     let r2 = radius * radius;
@@ -515,7 +599,7 @@ fn sppm_gather_photons(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> S
     let extent = vec3<f32>(hi - lo) + vec3<f32>(1.0);
     if (extent.x * extent.y * extent.z > f32(frame.sppm_slot_mask)) {
         for (var s = 0u; s <= frame.sppm_slot_mask; s++) {
-            let run = sppm_run(s);
+            let run = sppm_run(map, s);
             for (var j = run.x; j < run.y; j++) {
                 sppm_photon_flux(sppm_order[j], si, bsdf, r2, transmits, &out);
             }
@@ -526,7 +610,7 @@ fn sppm_gather_photons(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> S
         for (var cy = lo.y; cy <= hi.y; cy++) {
             for (var cx = lo.x; cx <= hi.x; cx++) {
                 let c = vec3<i32>(cx, cy, cz);
-                let run = sppm_run(sppm_slot(c));
+                let run = sppm_run(map, sppm_slot(c));
                 for (var j = run.x; j < run.y; j++) {
                     let i = sppm_order[j];
                     if (all(sppm_cell_of(sppm_photon_p(sppm_photons[i]), cell) == c)) {
@@ -554,11 +638,9 @@ fn sppm_gather(@builtin(global_invocation_id) gid: vec3<u32>) {
     var estimate = vp.direct;
     state.direct += vp.direct;
     if (vp.triangle != INVALID_INDEX) {
-        let ray = Ray(vp.origin, vp.direction, F32_MAX);
-        let si = surface_interaction(ray, ClosestHit(vp.triangle, vp.b, vp.t), vp.cone_width);
-        let material = textured_material(materials[si.material], si.uv, si.lod);
-        let bsdf = gltf_bsdf_new(material, si.wo, si.front_face, si.coat_normal);
-        let gathered = sppm_gather_photons(si, bsdf, state.radius);
+        let surface = sppm_surface(vp);
+        let si = surface.si;
+        let gathered = sppm_gather_photons(SppmMap(0u, 0u), si, surface.bsdf, state.radius);
         let area = PI * state.radius * state.radius;
         estimate += vp.beta * gathered.phi / (f32(frame.sppm_photons) * area);
         if (gathered.m > 0u) {

@@ -1,8 +1,8 @@
 //! Photon mapping (issue 44), progressive (`sppm`) and with fixed maps (`photon`), against
 //! the path tracer, bidirectional path tracing and analytic
-//! answers, on the CPU backend. SPPM's WGSL twin equals this CPU half to rounding for a
-//! seed (tests/gpu/sppm.rs), so what holds here holds for it; the photon-map integrator has
-//! no GPU kernel yet, and the GPU backend refuses `--integrator photon` by name.
+//! answers, on the CPU backend. The WGSL twins equal these CPU halves for a seed
+//! (tests/gpu/sppm.rs: SPPM to rounding, the photon-map integrator to its maps' rounding),
+//! so what holds here holds for them.
 //!
 //! SPPM is biased: its radius blurs the photons' light, a bias that shrinks with the
 //! passes. Each test states the bound it holds it to and why.

@@ -9,7 +9,7 @@ use crate::integrator::irradiance_cache::{IrradianceCache, IrradianceCacheContex
 use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
 use crate::integrator::mlt::{mlt_pass, MltContext, MltStats};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
-use crate::integrator::photon::{photon_map_sample, PhotonMapSettings, PhotonMaps, DEFAULT_GATHER_PHOTONS};
+use crate::integrator::photon::{photon_map_sample, PhotonMapSettings, PhotonMaps};
 use crate::integrator::sppm::{sppm_film, sppm_pass, SppmContext, SppmPixel, SppmSettings, SppmStats};
 use crate::integrator::{path::radiance, Integrator, IntegratorSettings};
 use crate::render::{Backend, RenderSettings};
@@ -244,13 +244,7 @@ impl CpuBackend<'_> {
     /// if they are not yet.
     fn render_photon_band(&mut self, samples: std::ops::Range<u32>, rows: std::ops::Range<u32>) {
         let integrator = self.integrator_settings();
-        let s = &self.settings;
-        let default = crate::integrator::photon::default_map_photons(s.width, s.height);
-        let map_settings = PhotonMapSettings {
-            photons: s.photons.unwrap_or(default),
-            caustic_photons: s.caustic_photons.unwrap_or(default),
-            gather_photons: s.gather_photons.unwrap_or(DEFAULT_GATHER_PHOTONS),
-        };
+        let map_settings = PhotonMapSettings::of_render(&self.settings);
         let sppm = self.sppm_settings();
         if self.photon_maps.is_none() {
             let ctx = Self::photon_context(&self.scene, &self.camera, &self.settings, &integrator, sppm);

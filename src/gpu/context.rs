@@ -114,14 +114,16 @@ impl KernelKey {
 pub struct Kernel {
     pub key: KernelKey,
     /// Each pass's per-pixel work: the path tracer's samples, bidirectional path tracing's
-    /// traced pass, photon mapping's visible points (`sppm_visible`).
+    /// traced pass, SPPM's visible points (`sppm_visible`), the photon-map integrator's
+    /// samples (`photon_render`).
     pub render: wgpu::ComputePipeline,
     pub first_hit: wgpu::ComputePipeline,
-    /// Bidirectional path tracing's second pass (`bdpt_resolve` in shaders/bdpt.wgsl): adds
-    /// a traced pass and its splats to the film. None for the path tracer.
+    /// The second pass that adds a traced pass to the film: bidirectional path tracing's
+    /// (`bdpt_resolve` in shaders/bdpt.wgsl: the pass and its splats), SPPM's (`sppm_gather`
+    /// in shaders/sppm.wgsl: the visible points' gathers). None for the others.
     pub resolve: Option<wgpu::ComputePipeline>,
-    /// Photon mapping's passes after `render` (which traces its visible points).
-    pub sppm: Option<SppmPipelines>,
+    /// Photon mapping's map passes (SPPM's every pass, the photon-map integrator's once).
+    pub photon_maps: Option<PhotonMapPipelines>,
     /// Wall time to build the `render` pipeline (override specialisation, SPIR-V generation
     /// and the driver's compile).
     pub build_seconds: f64,
@@ -149,14 +151,14 @@ const SPPM_BINDINGS: u32 = 5;
 /// The bindings of `integrator`'s kernel.
 pub(crate) fn kernel_bindings(integrator: Integrator) -> u32 {
     match integrator {
-        Integrator::Sppm => KERNEL_BINDINGS + SPPM_BINDINGS,
-        _ => KERNEL_BINDINGS,
+        Integrator::Sppm | Integrator::Photon => KERNEL_BINDINGS + SPPM_BINDINGS,
+        Integrator::Path | Integrator::Bdpt | Integrator::Mlt => KERNEL_BINDINGS,
     }
 }
 
-/// Photon mapping's passes besides its visible points (`Kernel::render`), in the order a
-/// pass runs them (shaders/sppm.wgsl explains each).
-pub struct SppmPipelines {
+/// Photon mapping's passes that trace photons into a map and build its grid, in the order
+/// they run (shaders/sppm.wgsl explains each).
+pub struct PhotonMapPipelines {
     pub trace_photons: wgpu::ComputePipeline,
     pub grid_setup: wgpu::ComputePipeline,
     pub grid_count: wgpu::ComputePipeline,
@@ -164,7 +166,6 @@ pub struct SppmPipelines {
     pub scan_totals: wgpu::ComputePipeline,
     pub scan_add: wgpu::ComputePipeline,
     pub grid_scatter: wgpu::ComputePipeline,
-    pub gather: wgpu::ComputePipeline,
 }
 
 /// The AOV passes' pipelines (shaders/aov.wgsl): the first pass over bands of the image, and
@@ -378,30 +379,32 @@ impl GpuContext {
             // Declared by the path tracer's files only (shaders/irradiance_cache.wgsl).
             constants.push(("IRRADIANCE_CACHE", if key.irradiance_cache { 1.0 } else { 0.0 }));
         }
-        let render_entry = if key.integrator == Integrator::Sppm { "sppm_visible" } else { "render" };
+        let render_entry = match key.integrator {
+            Integrator::Sppm => "sppm_visible",
+            Integrator::Photon => "photon_render",
+            Integrator::Path | Integrator::Bdpt | Integrator::Mlt => "render",
+        };
         let (render, build_seconds) = self.build_pipeline(&source, render_entry, &constants)?;
         let (first_hit, _) = self.build_pipeline(&source, "first_hit", &constants)?;
+        let build = |entry: &str| self.build_pipeline(&source, entry, &constants).map(|(p, _)| p);
         let resolve = match key.integrator {
-            Integrator::Bdpt => Some(self.build_pipeline(&source, "bdpt_resolve", &constants)?.0),
-            Integrator::Path | Integrator::Sppm | Integrator::Photon | Integrator::Mlt => None,
+            Integrator::Bdpt => Some(build("bdpt_resolve")?),
+            Integrator::Sppm => Some(build("sppm_gather")?),
+            Integrator::Path | Integrator::Photon | Integrator::Mlt => None,
         };
-        let sppm = match key.integrator {
-            Integrator::Sppm => {
-                let build = |entry: &str| self.build_pipeline(&source, entry, &constants).map(|(p, _)| p);
-                Some(SppmPipelines {
-                    trace_photons: build("sppm_trace_photons")?,
-                    grid_setup: build("sppm_grid_setup")?,
-                    grid_count: build("sppm_grid_count")?,
-                    scan_blocks: build("sppm_scan_blocks")?,
-                    scan_totals: build("sppm_scan_totals")?,
-                    scan_add: build("sppm_scan_add")?,
-                    grid_scatter: build("sppm_grid_scatter")?,
-                    gather: build("sppm_gather")?,
-                })
-            }
-            _ => None,
+        let photon_maps = match key.integrator {
+            Integrator::Sppm | Integrator::Photon => Some(PhotonMapPipelines {
+                trace_photons: build("sppm_trace_photons")?,
+                grid_setup: build("sppm_grid_setup")?,
+                grid_count: build("sppm_grid_count")?,
+                scan_blocks: build("sppm_scan_blocks")?,
+                scan_totals: build("sppm_scan_totals")?,
+                scan_add: build("sppm_scan_add")?,
+                grid_scatter: build("sppm_grid_scatter")?,
+            }),
+            Integrator::Path | Integrator::Bdpt | Integrator::Mlt => None,
         };
-        let kernel = Arc::new(Kernel { key, render, first_hit, resolve, sppm, build_seconds, source });
+        let kernel = Arc::new(Kernel { key, render, first_hit, resolve, photon_maps, build_seconds, source });
         cache.insert(key, kernel.clone());
         Ok(kernel)
     }

@@ -150,11 +150,43 @@ struct SppmState {
     /// the grid's header: not bound, since a dispatch may not read a buffer it binds for
     /// storage as its indirect arguments.
     dispatch: wgpu::Buffer,
-    /// Grid slots: a power of two from 256 to 2²³, about two per photon.
+    /// Grid slots per map: a power of two from 256 to 2²³, about two per photon.
     slots: u32,
+    /// SPPM: the records a pass keeps; the photon-map integrator: the global map's.
     record_capacity: u32,
-    /// Passes taken since the last reset.
+    /// SPPM's passes taken since the last reset.
     passes: u32,
+    /// The photon-map integrator's two maps (`--integrator photon`), else None.
+    maps: Option<PhotonMapsGpu>,
+}
+
+/// The photon-map integrator's maps in [`SppmState`]'s buffers, traced once: the global map
+/// from record 0 and grid word 0, the caustic map after it.
+struct PhotonMapsGpu {
+    settings: crate::integrator::photon::PhotonMapSettings,
+    caustic_capacity: u32,
+    caustic_record_base: u32,
+    caustic_grid_base: u32,
+    /// The scene's surface area, for the global radius.
+    scene_area: f64,
+    /// The caustic map's cell edge (`integrator::photon::caustic_cell`).
+    caustic_cell: f32,
+    /// The global map's gather radius, once the maps are built.
+    global_radius: Option<f32>,
+}
+
+/// A step of a compute pass: a pipeline and its workgroups, or None for as many as the map
+/// being built stored records (an indirect dispatch).
+type MapStep<'a> = (&'a wgpu::ComputePipeline, Option<(u32, u32, u32)>);
+
+/// One photon map to build: what its build dispatches read.
+struct MapBuild {
+    pass: u32,
+    kind: crate::integrator::sppm::PhotonKind,
+    photons: u32,
+    capacity: u32,
+    grid_base: u32,
+    record_base: u32,
 }
 
 impl GpuBackend {
@@ -355,7 +387,9 @@ impl GpuBackend {
             read_only,
         )?;
         let ic_indices = storage("irradiance indices", bytemuck::bytes_of(&0u32), read_only)?;
-        let sppm = if settings.integrator == Integrator::Sppm {
+        let photon_mapping = matches!(settings.integrator, Integrator::Sppm | Integrator::Photon);
+        let sppm = if photon_mapping {
+            use crate::integrator::sppm::{gpu_record_capacity, PhotonKind};
             let sppm = crate::integrator::sppm::SppmSettings::of_render(settings);
             let limit = max_binding.min(max_buffer);
             let record_bytes = std::mem::size_of::<crate::scene::layout::SppmPhoton>() as u64;
@@ -375,25 +409,58 @@ impl GpuBackend {
                 sampler: settings.sampler,
                 passes: settings.spp,
             };
-            let record_capacity = (crate::integrator::sppm::gpu_record_capacity(&pilot) as u64)
-                .min(limit / record_bytes)
-                .max(1) as u32;
-            let slots = (2 * sppm.photons as u64).next_power_of_two().clamp(256, 1 << 23) as u32;
-            let grid_words = SPPM_HEADER_WORDS + slots as u64 + (slots / SPPM_SCAN_BLOCK) as u64;
+            // The records one binding holds: capacities past it are cut to it (the two maps'
+            // in proportion), and what does not fit is dropped and reported.
+            let room = limit / record_bytes;
+            let capacity = |photons: u32, kind: PhotonKind| -> u64 {
+                (gpu_record_capacity(&pilot, photons, kind) as u64).max(1)
+            };
+            let map_settings = crate::integrator::photon::PhotonMapSettings::of_render(settings);
+            let (record_capacity, most_photons, maps) = if settings.integrator == Integrator::Photon {
+                let (global, caustic) = (
+                    capacity(map_settings.photons, PhotonKind::All),
+                    capacity(map_settings.caustic_photons, PhotonKind::Caustic),
+                );
+                let scale = (room as f64 / (global + caustic) as f64).min(1.0);
+                let cut = |n: u64| ((n as f64 * scale) as u64).max(1) as u32;
+                let (global, caustic) = (cut(global), cut(caustic));
+                let most = map_settings.photons.max(map_settings.caustic_photons);
+                let maps = PhotonMapsGpu {
+                    settings: map_settings,
+                    caustic_capacity: caustic,
+                    caustic_record_base: global,
+                    caustic_grid_base: 0,
+                    scene_area: crate::integrator::photon::scene_area(scene),
+                    caustic_cell: crate::integrator::photon::caustic_cell(&pilot),
+                    global_radius: None,
+                };
+                (global, most, Some(maps))
+            } else {
+                (capacity(sppm.photons, PhotonKind::Indirect).min(room) as u32, sppm.photons, None)
+            };
+            let slots = (2 * most_photons as u64).next_power_of_two().clamp(256, 1 << 23) as u32;
+            let map_words = SPPM_HEADER_WORDS + slots as u64 + (slots / SPPM_SCAN_BLOCK) as u64;
+            let maps = maps.map(|m| PhotonMapsGpu { caustic_grid_base: map_words as u32, ..m });
+            let (grid_words, records) = match &maps {
+                Some(m) => (2 * map_words, record_capacity as u64 + m.caustic_capacity as u64),
+                None => (map_words, record_capacity as u64),
+            };
+            // The photon-map integrator keeps no per-pixel state: one unused element each.
+            let state_pixels = if maps.is_some() { 1 } else { pixels };
             let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
             let state = SppmState {
                 settings: sppm,
                 pixels: zeroed(
                     "photon-mapping pixels",
-                    pixels * std::mem::size_of::<crate::scene::layout::SppmPixelGpu>() as u64,
+                    state_pixels * std::mem::size_of::<crate::scene::layout::SppmPixelGpu>() as u64,
                 )?,
                 visible: zeroed(
                     "visible points",
-                    pixels * std::mem::size_of::<crate::scene::layout::SppmVisiblePoint>() as u64,
+                    state_pixels * std::mem::size_of::<crate::scene::layout::SppmVisiblePoint>() as u64,
                 )?,
-                photons: zeroed("photon records", record_capacity as u64 * record_bytes)?,
+                photons: zeroed("photon records", records * record_bytes)?,
                 grid: zeroed("photon grid", grid_words * 4)?,
-                order: zeroed("photon order", record_capacity as u64 * 4)?,
+                order: zeroed("photon order", records * 4)?,
                 dispatch: device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("photon dispatch"),
                     size: 12,
@@ -403,6 +470,7 @@ impl GpuBackend {
                 slots,
                 record_capacity,
                 passes: 0,
+                maps,
             };
             if let Some(e) = pollster::block_on(scope.pop()) {
                 return Err(Error::Gpu(format!("out of GPU memory for the photon passes: {e}")));
@@ -674,7 +742,8 @@ impl GpuBackend {
     /// gathers. The next pass's dispatches read what this one wrote, in queue order.
     fn submit_sppm_pass(&mut self, k: u32) -> Result<wgpu::SubmissionIndex> {
         let state = self.sppm.as_ref().expect("a photon-mapping backend has its state");
-        let passes = self.kernel.sppm.as_ref().expect("the photon-mapping kernel has its passes");
+        let maps = self.kernel.photon_maps.as_ref().expect("the photon-mapping kernel has its map passes");
+        let gather = self.kernel.resolve.as_ref().expect("the SPPM kernel has its gather");
         if k != state.passes {
             return Err(Error::Settings(format!(
                 "photon-mapping pass {k} asked for after {} passes: its passes depend on the ones before and run in order",
@@ -691,45 +760,153 @@ impl GpuBackend {
         encoder.clear_buffer(&state.grid, 0, Some(4));
         encoder.clear_buffer(&state.grid, SPPM_HEADER_WORDS * 4, Some(state.slots as u64 * 4));
         let image = (w.div_ceil(WORKGROUP), h.div_ceil(WORKGROUP), 1);
-        let photon_rows = state.settings.photons.div_ceil(w);
-        let blocks = state.slots / SPPM_SCAN_BLOCK;
-        // Each step's workgroups, or None: as many as the pass stored records
-        // (`sppm_grid_setup` leaves the count in the grid's header, copied between the two
-        // compute passes).
-        type Steps<'a> = [(&'a wgpu::ComputePipeline, Option<(u32, u32, u32)>)];
-        let before_grid: &Steps = &[
-            (&self.kernel.render, Some(image)),
-            (&passes.trace_photons, Some((w.div_ceil(WORKGROUP), photon_rows.div_ceil(WORKGROUP), 1))),
-            (&passes.grid_setup, Some((1, 1, 1))),
-        ];
-        let grid_and_gather: &Steps = &[
-            (&passes.grid_count, None),
-            (&passes.scan_blocks, Some((blocks, 1, 1))),
-            (&passes.scan_totals, Some((1, 1, 1))),
-            (&passes.scan_add, Some((blocks, 1, 1))),
-            (&passes.grid_scatter, None),
-            (&passes.gather, Some(image)),
-        ];
-        for (i, steps) in [before_grid, grid_and_gather].into_iter().enumerate() {
-            if i == 1 {
-                encoder.copy_buffer_to_buffer(&state.grid, SPPM_DISPATCH_WORD * 4, &state.dispatch, 0, 12);
-            }
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("sppm"),
-                timestamp_writes: None,
-            });
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            for &(pipeline, groups) in steps {
-                pass.set_pipeline(pipeline);
-                match groups {
-                    Some((x, y, z)) => pass.dispatch_workgroups(x, y, z),
-                    None => pass.dispatch_workgroups_indirect(&state.dispatch, 0),
-                }
-            }
-        }
+        let photons = self.photon_groups(state.settings.photons);
+        self.encode_steps(
+            &mut encoder,
+            &[(&self.kernel.render, Some(image)), (&maps.trace_photons, Some(photons))],
+        );
+        self.encode_grid(&mut encoder, state, maps, 0);
+        self.encode_steps(&mut encoder, &[(gather, Some(image))]);
         let index = self.ctx.queue.submit([encoder.finish()]);
         self.sppm.as_mut().expect("checked above").passes += 1;
         Ok(index)
+    }
+
+    /// Encodes one compute pass of `steps`: each pipeline with its workgroups, or None: as
+    /// many as the map being built stored records (`sppm_grid_setup` leaves the count in
+    /// the grid's header, copied into the indirect arguments between compute passes).
+    fn encode_steps(&self, encoder: &mut wgpu::CommandEncoder, steps: &[MapStep]) {
+        let dispatch = self.sppm.as_ref().map(|s| &s.dispatch);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("photons"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        for &(pipeline, groups) in steps {
+            pass.set_pipeline(pipeline);
+            match (groups, dispatch) {
+                (Some((x, y, z)), _) => pass.dispatch_workgroups(x, y, z),
+                (None, Some(args)) => pass.dispatch_workgroups_indirect(args, 0),
+                (None, None) => unreachable!("indirect steps belong to photon mapping"),
+            }
+        }
+    }
+
+    /// The workgroups that trace `photons` photons: rows of `width` photons in workgroups
+    /// of 8 rows, at most 65,535 in y and the rest in z layers (`sppm_trace_photons`).
+    fn photon_groups(&self, photons: u32) -> (u32, u32, u32) {
+        let w = self.settings.width;
+        let row_groups = photons.div_ceil(w).div_ceil(WORKGROUP).max(1);
+        let y_groups = row_groups.min(65_535);
+        (w.div_ceil(WORKGROUP), y_groups, row_groups.div_ceil(y_groups))
+    }
+
+    /// Encodes the grid of the map whose first grid word is `grid_base` (shaders/sppm.wgsl's
+    /// steps 3 and 4) once its photons are traced: the setup, the copy of its dispatch
+    /// arguments, then count, prefix sum and scatter.
+    fn encode_grid(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        state: &SppmState,
+        pipelines: &super::context::PhotonMapPipelines,
+        grid_base: u32,
+    ) {
+        self.encode_steps(encoder, &[(&pipelines.grid_setup, Some((1, 1, 1)))]);
+        let args = (grid_base as u64 + SPPM_DISPATCH_WORD) * 4;
+        encoder.copy_buffer_to_buffer(&state.grid, args, &state.dispatch, 0, 12);
+        let blocks = state.slots / SPPM_SCAN_BLOCK;
+        self.encode_steps(
+            encoder,
+            &[
+                (&pipelines.grid_count, None),
+                (&pipelines.scan_blocks, Some((blocks, 1, 1))),
+                (&pipelines.scan_totals, Some((1, 1, 1))),
+                (&pipelines.scan_add, Some((blocks, 1, 1))),
+                (&pipelines.grid_scatter, None),
+            ],
+        );
+    }
+
+    /// The photon-map integrator's maps, traced and sorted into their grids before its
+    /// first sample (twin of `PhotonMaps::build`): each map's photons are traced, their
+    /// count read back (the global radius follows from it), then its grid is built with
+    /// the cell edge the CPU twin uses.
+    fn build_photon_maps(&mut self) -> Result<()> {
+        use crate::integrator::photon::{global_radius, CAUSTIC_MAP_PASS, GLOBAL_MAP_PASS};
+        use crate::integrator::sppm::PhotonKind;
+        let Some(maps) = self.sppm.as_ref().and_then(|s| s.maps.as_ref()) else { return Ok(()) };
+        if maps.global_radius.is_some() {
+            return Ok(());
+        }
+        let state = self.sppm.as_ref().expect("checked above");
+        let builds = [
+            MapBuild {
+                pass: GLOBAL_MAP_PASS,
+                kind: PhotonKind::All,
+                photons: maps.settings.photons,
+                capacity: state.record_capacity,
+                grid_base: 0,
+                record_base: 0,
+            },
+            MapBuild {
+                pass: CAUSTIC_MAP_PASS,
+                kind: PhotonKind::Caustic,
+                photons: maps.settings.caustic_photons,
+                capacity: maps.caustic_capacity,
+                grid_base: maps.caustic_grid_base,
+                record_base: maps.caustic_record_base,
+            },
+        ];
+        let pipelines = self.kernel.photon_maps.as_ref().expect("the photon-map kernel has its map passes");
+        let mut radius = 0.0;
+        for build in builds {
+            let params = FrameParams {
+                sppm_photons: build.photons,
+                sppm_record_capacity: build.capacity,
+                photon_grid_base: build.grid_base,
+                photon_record_base: build.record_base,
+                photon_kind: build.kind.index(),
+                ..self.frame_params(build.pass, 1, 0, self.settings.height)
+            };
+            let base = build.grid_base as u64 * 4;
+            // Trace, then read back how many records it stored.
+            let traced = {
+                self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+                let mut encoder = self
+                    .ctx
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("photon map") });
+                encoder.clear_buffer(&state.grid, base, Some(4));
+                encoder.clear_buffer(&state.grid, base + SPPM_HEADER_WORDS * 4, Some(state.slots as u64 * 4));
+                let groups = self.photon_groups(build.photons);
+                self.encode_steps(&mut encoder, &[(&pipelines.trace_photons, Some(groups))]);
+                self.ctx.queue.submit([encoder.finish()])
+            };
+            self.wait(traced)?;
+            let count = self.ctx.read_buffer_range::<u32>(&state.grid, base..base + 4, SUBMIT_TIMEOUT)?[0];
+            let stored = count.min(build.capacity) as usize;
+            let cell = if build.kind == PhotonKind::All {
+                radius =
+                    global_radius(maps.scene_area, self.scene_radius, stored, maps.settings.gather_photons);
+                2.0 * radius
+            } else {
+                maps.caustic_cell
+            };
+            // The grid, with the host's cell edge.
+            let params = FrameParams { photon_cell: cell, ..params };
+            self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+            let mut encoder = self
+                .ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("photon grid") });
+            self.encode_grid(&mut encoder, state, pipelines, build.grid_base);
+            let index = self.ctx.queue.submit([encoder.finish()]);
+            self.wait(index)?;
+        }
+        if let Some(maps) = self.sppm.as_mut().and_then(|s| s.maps.as_mut()) {
+            maps.global_radius = Some(radius);
+        }
+        Ok(())
     }
 
     /// Photon mapping's [`Backend::render`]: pass after pass, up to [`MAX_IN_FLIGHT`] queued.
@@ -801,6 +978,7 @@ impl GpuBackend {
             crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, self.settings.spp);
         // One pixel's cone: photon mapping's footprint (`integrator::sppm::camera_path`).
         let footprint = crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, 1);
+        let maps = self.sppm.as_ref().and_then(|s| s.maps.as_ref());
         FrameParams {
             width: self.settings.width,
             height: self.settings.height,
@@ -824,14 +1002,22 @@ impl GpuBackend {
             ic_normal_scale: self.ic_frame.0,
             ic_gradients: self.ic_frame.1,
             ic_table_mask: self.ic_frame.2,
-            sppm_photons: self.sppm.as_ref().map_or(0, |s| s.settings.photons),
+            sppm_photons: match (&self.sppm, maps) {
+                (_, Some(m)) => m.settings.photons,
+                (Some(s), None) => s.settings.photons,
+                (None, None) => 0,
+            },
             sppm_radius_pixels: self.sppm.as_ref().map_or(0.0, |s| s.settings.radius_pixels),
             sppm_slot_mask: self.sppm.as_ref().map_or(0, |s| s.slots - 1),
             sppm_record_capacity: self.sppm.as_ref().map_or(0, |s| s.record_capacity),
             sppm_footprint_width: footprint.width,
             sppm_footprint_spread: footprint.spread,
-            _pad0: 0,
-            _pad1: 0,
+            photon_grid_base: maps.map_or(0, |m| m.caustic_grid_base),
+            photon_record_base: maps.map_or(0, |m| m.caustic_record_base),
+            photon_kind: 0,
+            photon_cell: 0.0,
+            photon_global_radius: maps.and_then(|m| m.global_radius).unwrap_or(0.0),
+            photon_caustic_photons: maps.map_or(0, |m| m.settings.caustic_photons),
         }
     }
 
@@ -1021,9 +1207,10 @@ impl Backend for GpuBackend {
         if self.settings.integrator == Integrator::Bdpt {
             return self.render_bdpt(sample_offset, samples);
         }
-        if self.sppm.is_some() {
+        if self.settings.integrator == Integrator::Sppm {
             return self.render_sppm(sample_offset, samples);
         }
+        self.build_photon_maps()?;
         let (w, h) = (self.settings.width, self.settings.height);
         // (submission, pixel-samples of work, time submitted)
         let mut in_flight: std::collections::VecDeque<(wgpu::SubmissionIndex, f64, Instant)> =
@@ -1111,7 +1298,7 @@ impl Backend for GpuBackend {
     fn film(&mut self) -> Result<Film> {
         let pixels = self.read_back::<FilmPixel>(&self.film)?;
         let film = Film { width: self.settings.width, height: self.settings.height, pixels };
-        let Some(state) = &self.sppm else { return Ok(film) };
+        let Some(state) = self.sppm.as_ref().filter(|s| s.maps.is_none()) else { return Ok(film) };
         // The film holds the per-pass estimates; the image is the progressive estimate.
         let states: Vec<crate::integrator::sppm::SppmPixel> = self
             .read_back::<crate::scene::layout::SppmPixelGpu>(&state.pixels)?
@@ -1145,7 +1332,8 @@ impl Backend for GpuBackend {
         if rows.start == 0 {
             self.fold_rays_before(self.ray_bound_per_sample())?;
         }
-        if let Some(state) = &self.sppm {
+        self.build_photon_maps()?;
+        if let Some(state) = self.sppm.as_ref().filter(|s| s.maps.is_none()) {
             // The whole pass is taken for its first band (its photons land anywhere); the
             // other bands of the same pass have nothing left to do.
             if sample_index + 1 == state.passes {
@@ -1178,7 +1366,8 @@ impl Backend for GpuBackend {
         encoder.clear_buffer(&self.film, 0, None);
         encoder.clear_buffer(&self.ray_counts, 0, None);
         encoder.clear_buffer(&self.bdpt_state, 0, Some(16));
-        if let Some(state) = &mut self.sppm {
+        // SPPM's passes start again; the photon-map integrator's maps stay as traced.
+        if let Some(state) = self.sppm.as_mut().filter(|s| s.maps.is_none()) {
             encoder.clear_buffer(&state.pixels, 0, None);
             encoder.clear_buffer(&state.grid, 0, Some(SPPM_HEADER_WORDS * 4));
             state.passes = 0;

@@ -58,6 +58,16 @@ const SPPM_FILES: &[ShaderFile] = &[
     ("sppm.wgsl", include_str!("../../shaders/sppm.wgsl")),
 ];
 
+/// The photon-map integrator's render (shaders/photon.wgsl) after SPPM's files, whose
+/// camera path, photon passes and gathers it uses.
+const PHOTON_FILES: &[ShaderFile] = &[
+    ("irradiance_cache.wgsl", include_str!("../../shaders/irradiance_cache.wgsl")),
+    ("path.wgsl", include_str!("../../shaders/path.wgsl")),
+    BDPT_WALK,
+    ("sppm.wgsl", include_str!("../../shaders/sppm.wgsl")),
+    ("photon.wgsl", include_str!("../../shaders/photon.wgsl")),
+];
+
 /// The files that follow [`COMMON_FILES`] in `integrator`'s kernel: its WGSL twins, named as
 /// its CPU half in `src/integrator/` is.
 pub fn integrator_files(integrator: Integrator) -> &'static [ShaderFile] {
@@ -65,9 +75,10 @@ pub fn integrator_files(integrator: Integrator) -> &'static [ShaderFile] {
         Integrator::Path => PATH_FILES,
         Integrator::Bdpt => BDPT_FILES,
         Integrator::Sppm => SPPM_FILES,
+        Integrator::Photon => PHOTON_FILES,
         // No kernel yet (`Integrator::has_gpu_kernel`): `GpuContext` refuses it before any
         // source is composed.
-        Integrator::Photon | Integrator::Mlt => &[],
+        Integrator::Mlt => &[],
     }
 }
 
@@ -296,7 +307,24 @@ mod tests {
                 ref other => panic!("{name}: unexpected initializer {other:?}"),
             }
         };
-        use crate::integrator::sppm;
+        use crate::integrator::{photon, sppm};
+        let photon_files = kernel_files(Integrator::Photon);
+        let photon_module =
+            parse_and_validate(&kernel_source(Integrator::Photon, UniformTables::default()), &photon_files)
+                .unwrap();
+        for (name, value) in [
+            ("CAUSTIC_RADIUS_PIXELS", photon::CAUSTIC_RADIUS_PIXELS as f64),
+            ("GATHER_DELTA_BOUNCES", photon::GATHER_DELTA_BOUNCES as f64),
+        ] {
+            let (_, c) =
+                photon_module.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name)).unwrap();
+            let wgsl = match photon_module.global_expressions[c.init] {
+                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
+                naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
+                ref other => panic!("{name}: unexpected initializer {other:?}"),
+            };
+            assert_eq!(wgsl, value, "constant {name}: WGSL vs Rust");
+        }
         for (name, value) in [
             ("SPPM_ALPHA", sppm::SPPM_ALPHA as f64),
             ("PHOTON_STREAM", sppm::PHOTON_STREAM as f64),
@@ -304,6 +332,9 @@ mod tests {
             ("SPPM_HEADER_WORDS", crate::gpu::renderer::SPPM_HEADER_WORDS as f64),
             ("SPPM_DISPATCH", crate::gpu::renderer::SPPM_DISPATCH_WORD as f64),
             ("SPPM_SCAN_BLOCK", crate::gpu::renderer::SPPM_SCAN_BLOCK as f64),
+            ("PHOTONS_INDIRECT", sppm::PhotonKind::Indirect.index() as f64),
+            ("PHOTONS_ALL", sppm::PhotonKind::All.index() as f64),
+            ("PHOTONS_CAUSTIC", sppm::PhotonKind::Caustic.index() as f64),
         ] {
             assert_eq!(sppm_constant(name), value, "constant {name}: WGSL vs Rust");
         }

@@ -27,6 +27,13 @@
 //! of which more samples remove. The variance channels are those of the samples, given the
 //! maps: noise only. `sppm` is the consistent method; this one is quick where its bias is
 //! acceptable.
+//!
+//! **GPU twin** (`shaders/photon.wgsl`): the maps are traced and sorted into their grids
+//! once on the device by SPPM's photon and grid passes (`shaders/sppm.wgsl`), each map in
+//! its own part of the shared buffers, sized by a pilot
+//! ([`super::sppm::gpu_record_capacity`]); its count is read back between the tracing and
+//! the grid, since the global radius follows from it. A sample is then this module's, from
+//! the same streams (tests/gpu/sppm.rs).
 
 use glam::Vec3;
 
@@ -62,11 +69,11 @@ pub fn default_map_photons(width: u32, height: u32) -> u32 {
 
 /// Pass indices of the maps' photon streams: past any sample index a render can reach
 /// (`--spp` is a `u32` of samples, and the maps are traced once).
-const GLOBAL_MAP_PASS: u32 = u32::MAX;
-const CAUSTIC_MAP_PASS: u32 = u32::MAX - 1;
+pub(crate) const GLOBAL_MAP_PASS: u32 = u32::MAX;
+pub(crate) const CAUSTIC_MAP_PASS: u32 = u32::MAX - 1;
 
 /// The most delta bounces a final-gather ray follows before it gives up.
-const GATHER_DELTA_BOUNCES: u32 = 16;
+pub const GATHER_DELTA_BOUNCES: u32 = 16;
 
 /// A render's two photon maps.
 pub struct PhotonMaps {
@@ -93,23 +100,48 @@ pub struct PhotonMapSettings {
     pub gather_photons: u32,
 }
 
-/// The global map's radius: where `photons` stored photons spread evenly over the scene's
-/// surface area A, a disk of radius r holds `gather` of them: r = √(gather · A / (π n)).
-/// Photons crowd where light falls, so lit regions average more and dark ones fewer.
-pub fn global_radius(scene: &FlatScene, photons: usize, gather: u32) -> f32 {
-    let area: f64 = scene
+/// The scene's surface area, for [`global_radius`].
+pub fn scene_area(scene: &FlatScene) -> f64 {
+    scene
         .triangles
         .iter()
         .map(|t| {
             let (p0, p1, p2) = (Vec3::from(t.p0), Vec3::from(t.p1), Vec3::from(t.p2));
             0.5 * (p1 - p0).cross(p2 - p0).length() as f64
         })
-        .sum();
+        .sum()
+}
+
+/// The global map's radius: where `photons` stored photons spread evenly over the scene's
+/// surface area A ([`scene_area`]), a disk of radius r holds `gather` of them:
+/// r = √(gather · A / (π n)). Photons crowd where light falls, so lit regions average more
+/// and dark ones fewer.
+pub fn global_radius(area: f64, scene_radius: f32, photons: usize, gather: u32) -> f32 {
     let r = (gather as f64 * area / (std::f64::consts::PI * photons.max(1) as f64)).sqrt() as f32;
     if r.is_finite() && r > 0.0 {
         r
     } else {
-        scene.scene_radius * 1e-2
+        scene_radius * 1e-2
+    }
+}
+
+/// The caustic map's grid cell: about the caustic radius at a typical visible point (a
+/// pixel's footprint at the scene's radius), so a gather reads a few cells.
+pub fn caustic_cell(ctx: &SppmContext) -> f32 {
+    let camera_cone = crate::scene::camera::camera_ray_cone(ctx.camera, ctx.height, ctx.passes);
+    2.0 * CAUSTIC_RADIUS_PIXELS * camera_cone.width_at(ctx.scene.scene_radius)
+}
+
+impl PhotonMapSettings {
+    /// The maps `settings` ask for (`--photons`, `--caustic-photons`, `--gather-photons`),
+    /// [`default_map_photons`] and [`DEFAULT_GATHER_PHOTONS`] unless told otherwise.
+    pub fn of_render(settings: &crate::render::RenderSettings) -> PhotonMapSettings {
+        let default = default_map_photons(settings.width, settings.height);
+        PhotonMapSettings {
+            photons: settings.photons.unwrap_or(default),
+            caustic_photons: settings.caustic_photons.unwrap_or(default),
+            gather_photons: settings.gather_photons.unwrap_or(DEFAULT_GATHER_PHOTONS),
+        }
     }
 }
 
@@ -120,11 +152,13 @@ impl PhotonMaps {
         let (caustic, caustic_stats) =
             trace_photons(ctx, CAUSTIC_MAP_PASS, settings.caustic_photons, PhotonKind::Caustic);
         stats += caustic_stats;
-        let global_radius = global_radius(ctx.scene, global.len(), settings.gather_photons);
-        // The caustic map's cells: about the caustic radius at a typical visible point
-        // (a pixel's footprint at the scene's radius), so a gather reads a few cells.
-        let camera_cone = crate::scene::camera::camera_ray_cone(ctx.camera, ctx.height, ctx.passes);
-        let caustic_cell = 2.0 * CAUSTIC_RADIUS_PIXELS * camera_cone.width_at(ctx.scene.scene_radius);
+        let global_radius = global_radius(
+            scene_area(ctx.scene),
+            ctx.scene.scene_radius,
+            global.len(),
+            settings.gather_photons,
+        );
+        let caustic_cell = caustic_cell(ctx);
         PhotonMaps {
             global_grid: PhotonGrid::build(&global, 2.0 * global_radius),
             global,

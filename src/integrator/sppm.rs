@@ -111,18 +111,20 @@ const PILOT_PHOTONS: u32 = 4096;
 /// from the photon maps' (`super::photon`, `u32::MAX` and `u32::MAX − 1`).
 const PILOT_PASS: u32 = u32::MAX - 2;
 
-/// The photon records a GPU pass of `ctx.sppm.photons` photons keeps room for, which must
-/// be allocated before any pass runs (the CPU backend grows its list instead): twice the
-/// records per photon of a pilot of [`PILOT_PHOTONS`] photons traced here, plus 4,096 for
-/// passes of few photons, at most [`MAX_PHOTON_RECORDS`]. A pass of N photons stores a sum
-/// of N independent counts, so its excess over the pilot's mean is a few √N, far inside the
-/// margin once N is past a few hundred; records past the capacity are dropped, counted and
-/// reported as on the CPU backend. Landings per photon: 2.1 in the Cornell box, 9.2 in the
-/// albedo-0.9 furnace.
-pub fn gpu_record_capacity(ctx: &SppmContext) -> u32 {
-    let (pilot, _) = trace_photons(ctx, PILOT_PASS, PILOT_PHOTONS, PhotonKind::Indirect);
+/// The photon records a GPU pass of `photons` photons keeping the landings `kind` says has
+/// room for, which must be allocated before any pass runs (the CPU backend grows its list
+/// instead): 1.25 times the records per photon of a pilot of [`PILOT_PHOTONS`] photons
+/// traced here, plus 4,096 for passes of few photons, at most [`MAX_PHOTON_RECORDS`]. A
+/// pass of N photons stores a sum of N independent counts (each of standard deviation
+/// about its mean m, the landings of a roulette-ended walk being near geometric), so it
+/// exceeds N m by a few m √N: within the 4,096 below a few hundred photons, within N m / 4
+/// above; the pilot's own mean is within 2% (one σ). Records past the capacity are dropped,
+/// counted and reported as on the CPU backend. Landings per photon (SPPM's): 2.1 in the
+/// Cornell box, 9.2 in the albedo-0.9 furnace.
+pub fn gpu_record_capacity(ctx: &SppmContext, photons: u32, kind: PhotonKind) -> u32 {
+    let (pilot, _) = trace_photons(ctx, PILOT_PASS, PILOT_PHOTONS, kind);
     let per_photon = pilot.len() as f64 / PILOT_PHOTONS as f64;
-    let capacity = (2.0 * per_photon * ctx.sppm.photons as f64).ceil() + 4096.0;
+    let capacity = (1.25 * per_photon * photons as f64).ceil() + 4096.0;
     capacity.min(MAX_PHOTON_RECORDS as f64) as u32
 }
 
@@ -531,9 +533,9 @@ pub(crate) fn mis_weighted_emission(
     le * weight
 }
 
-/// Which of a photon's landings are stored.
+/// Which of a photon's landings are stored (WGSL twins `PHOTONS_*` in shaders/sppm.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum PhotonKind {
+pub enum PhotonKind {
     /// From the second bounce on: light that is not direct (SPPM's photons).
     Indirect,
     /// Every landing: direct light too (the photon-map integrator's global map).
@@ -541,6 +543,17 @@ pub(crate) enum PhotonKind {
     /// Landings reached from the light through delta bounces only, at least one (L S+ D,
     /// the caustic map).
     Caustic,
+}
+
+impl PhotonKind {
+    /// The kernel's number for it (`FrameParams::photon_kind`).
+    pub fn index(self) -> u32 {
+        match self {
+            PhotonKind::Indirect => 0,
+            PhotonKind::All => 1,
+            PhotonKind::Caustic => 2,
+        }
+    }
 }
 
 /// `count` photons of pass `pass` (the module's step 2), the landings `kind` keeps, in

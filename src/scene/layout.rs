@@ -343,7 +343,7 @@ pub const PROJECTION_PERSPECTIVE: u32 = 0;
 pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
 
 gpu_struct! {
-    /// What one dispatch computes, 128 bytes.
+    /// What one dispatch computes, 144 bytes.
     pub struct FrameParams {
         pub width: u32,
         pub height: u32,
@@ -403,8 +403,21 @@ gpu_struct! {
         /// One pixel's camera ray cone (a one-sample render's): a visible point's footprint.
         pub sppm_footprint_width: f32,
         pub sppm_footprint_spread: f32,
-        pub _pad0: u32,
-        pub _pad1: u32,
+        /// The photon map a build dispatch writes: its grid's first word and its first
+        /// record (shaders/sppm.wgsl `SppmMap`); for the photon-map integrator's render, the
+        /// caustic map's (the global map's are 0).
+        pub photon_grid_base: u32,
+        pub photon_record_base: u32,
+        /// Which landings a build dispatch keeps (`integrator::sppm::PhotonKind`: 0
+        /// indirect, 1 all, 2 caustic).
+        pub photon_kind: u32,
+        /// The map's cell edge where the host sets it (the photon maps'); 0: twice the
+        /// pixels' mean radius (SPPM's).
+        pub photon_cell: f32,
+        /// The photon-map integrator: the global map's gather radius, and the photons
+        /// traced for the caustic map (`sppm_photons` holds the global map's).
+        pub photon_global_radius: f32,
+        pub photon_caustic_photons: u32,
     }
 }
 
