@@ -23,8 +23,8 @@
 const SPPM_ALPHA: f32 = 2.0 / 3.0;
 // Twin of PHOTON_STREAM.
 const PHOTON_STREAM: u32 = 0xfffffffeu;
-// Twin of NORMAL_AGREEMENT.
-const NORMAL_AGREEMENT: f32 = 0.5;
+// Twin of PLANE_TOLERANCE.
+const PLANE_TOLERANCE: f32 = 0.1;
 
 // The words of `sppm_grid` before its slots: this pass's photon records (appended by
 // `sppm_trace_photons`), the cell edge (f32 bits), running totals the host reads for
@@ -555,20 +555,30 @@ struct SppmGathered {
 }
 
 // Twin of the test and the sum inside `PhotonGrid::gather`: adds photon `i` to `out` where
-// it lies within √r2 of the surface point `si` (BSDF `bsdf`) and can light it.
-fn sppm_photon_flux(i: u32, si: SurfaceInteraction, bsdf: GltfBsdf, r2: f32, transmits: bool, out: ptr<function, SppmGathered>) {
+// it lies within `radius` of the surface point `si` (BSDF `bsdf`) and can light it.
+fn sppm_photon_flux(i: u32, si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32, transmits: bool, out: ptr<function, SppmGathered>) {
     let ph = sppm_photons[i];
+    let r2 = radius * radius;
     let p = sppm_photon_p(ph);
     let n = sppm_photon_n(ph);
     let d = p - si.p;
     let ng = si.n_geometric;
-    if (dot(d, d) > r2 || dot(n, ng) < NORMAL_AGREEMENT) {
+    if (dot(d, d) > r2) {
         return;
     }
     let w = sppm_photon_wi(ph);
     // Back-facing photons (the CPU twin explains).
     if (!transmits && (dot(w, n) > 0.0) != (dot(si.wo_world, ng) > 0.0)) {
         return;
+    }
+    // Twin of `facing_each_other`.
+    if (!transmits) {
+        let n_point = select(-ng, ng, dot(si.wo_world, ng) > 0.0);
+        let n_photon = select(-n, n, dot(w, n) > 0.0);
+        let tolerance = PLANE_TOLERANCE * radius;
+        if (dot(d, n_point) < -tolerance || dot(d, n_photon) > tolerance) {
+            return;
+        }
     }
     let wi = frame_to_local(si.frame, w);
     if (!sides_agree(si, w, wi)) {
@@ -594,14 +604,13 @@ fn sppm_gather_photons(map: SppmMap, si: SurfaceInteraction, bsdf: GltfBsdf, rad
     let cell = sppm_cell_edge(map);
     let lo = sppm_cell_of(si.p - vec3<f32>(radius), cell);
     let hi = sppm_cell_of(si.p + vec3<f32>(radius), cell);
-    let r2 = radius * radius;
     let transmits = has_rough_transmission(bsdf);
     let extent = vec3<f32>(hi - lo) + vec3<f32>(1.0);
     if (extent.x * extent.y * extent.z > f32(frame.sppm_slot_mask)) {
         for (var s = 0u; s <= frame.sppm_slot_mask; s++) {
             let run = sppm_run(map, s);
             for (var j = run.x; j < run.y; j++) {
-                sppm_photon_flux(sppm_order[j], si, bsdf, r2, transmits, &out);
+                sppm_photon_flux(sppm_order[j], si, bsdf, radius, transmits, &out);
             }
         }
         return out;
@@ -614,7 +623,7 @@ fn sppm_gather_photons(map: SppmMap, si: SurfaceInteraction, bsdf: GltfBsdf, rad
                 for (var j = run.x; j < run.y; j++) {
                     let i = sppm_order[j];
                     if (all(sppm_cell_of(sppm_photon_p(sppm_photons[i]), cell) == c)) {
-                        sppm_photon_flux(i, si, bsdf, r2, transmits, &out);
+                        sppm_photon_flux(i, si, bsdf, radius, transmits, &out);
                     }
                 }
             }
