@@ -6,7 +6,8 @@
 //!
 //! 1. a converged image: [`CONVERGED_BATCHES`] renders of `--converged-spp` / batches
 //!    samples with their own seeds, whose per-pixel spread gives the variance of their mean
-//!    (the batches are kept as `OUT/<scene>/pbrt-<integrator>-batch<k>.exr` and reused);
+//!    (the batches are kept as `OUT/<scene>/pbrt-<integrator>-batch<k>.exr` and reused),
+//!    by pbrt's integrator or the one `--pbrt-converged-integrator` names;
 //! 2. the error series: renders at 1, 2, 4, … spp, each timed, until one takes longer than
 //!    the series' seconds, relMSE against pbrt's own converged image. pbrt renders
 //!    spectrally, so its images differ from an RGB renderer's by a few tenths of a percent
@@ -37,6 +38,11 @@ pub struct PbrtOptions {
     pub binary: PathBuf,
     /// pbrt's integrator (`bdpt`, `path`, …).
     pub integrator: String,
+    /// The integrator of pbrt's converged image: `integrator` unless told otherwise. A
+    /// biased integrator (`sppm`) measured against its own converged image has the bias the
+    /// two share hidden from its error, while pathlight's biased integrators are measured
+    /// against the path tracer's: `path` here makes the two comparable.
+    pub converged_integrator: String,
 }
 
 /// pbrt's series and its converged image on one scene.
@@ -46,16 +52,16 @@ pub struct PbrtRun {
 }
 
 /// Converts `scene` to `OUT/<scene>/pbrt-<integrator>.pbrt` with `bench/pbrt_peer.py`.
-fn convert(scene: &BenchScene, options: &PeerOptions, pbrt: &PbrtOptions) -> Result<PathBuf> {
+fn convert(scene: &BenchScene, options: &PeerOptions, integrator: &str) -> Result<PathBuf> {
     let dir = options.out.join(&scene.name);
-    let file = dir.join(format!("pbrt-{}.pbrt", pbrt.integrator));
+    let file = dir.join(format!("pbrt-{integrator}.pbrt"));
     let script = options.script.with_file_name("pbrt_peer.py");
     let mut command = Command::new(&options.python);
     command
         .arg(&script)
         .arg(&scene.base)
         .args(["--width", &options.width.to_string(), "--height", &options.height.to_string()])
-        .args(["--integrator", &pbrt.integrator])
+        .args(["--integrator", integrator])
         .arg("--out")
         .arg(&file);
     if let Some(insert) = &scene.insert {
@@ -138,19 +144,25 @@ fn mean_of_batches(batches: &[LinearImage]) -> LinearImage {
 pub fn run(scene: &BenchScene, options: &PeerOptions, pbrt: &PbrtOptions) -> Result<PbrtRun> {
     let dir = options.out.join(&scene.name);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let file = convert(scene, options, pbrt)?;
+    let file = convert(scene, options, &pbrt.integrator)?;
+    let converged_file = if pbrt.converged_integrator == pbrt.integrator {
+        file.clone()
+    } else {
+        convert(scene, options, &pbrt.converged_integrator)?
+    };
     let tag = format!("pbrt-{}", pbrt.integrator);
     let scratch = dir.join(format!("{tag}-series.exr"));
     let batch_spp = (options.converged_spp / CONVERGED_BATCHES).max(1);
     let mut batches = Vec::new();
     for k in 0..CONVERGED_BATCHES {
-        let path = dir.join(format!("{tag}-batch{k}.exr"));
+        let path = dir.join(format!("pbrt-{}-batch{k}.exr", pbrt.converged_integrator));
         let reusable = path.exists()
             && LinearImage::read(&path)
                 .is_ok_and(|b| (b.width, b.height) == (options.width as usize, options.height as usize));
         if !reusable {
-            eprintln!("{}: pbrt {} converged batch {k}, {batch_spp} spp", scene.name, pbrt.integrator);
-            render(pbrt, &file, batch_spp, 1_000_000 + k, &path, false)?;
+            let name = &pbrt.converged_integrator;
+            eprintln!("{}: pbrt {name} converged batch {k}, {batch_spp} spp", scene.name);
+            render(pbrt, &converged_file, batch_spp, 1_000_000 + k, &path, false)?;
         }
         batches.push(LinearImage::read(&path)?);
     }

@@ -95,6 +95,10 @@ pub struct BenchArgs {
     /// With --peer pbrt: pbrt's integrator (bdpt, path, …).
     #[arg(long, default_value = "bdpt")]
     pbrt_integrator: String,
+    /// With --peer pbrt: the integrator of pbrt's converged image (default: --pbrt-integrator).
+    /// For a biased one such as sppm, `path` measures its bias as pathlight's is measured.
+    #[arg(long)]
+    pbrt_converged_integrator: Option<String>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -171,6 +175,10 @@ fn run_peer(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) -> Resul
         Peer::Pbrt => peer::PeerKind::Pbrt(pathlight::bench::pbrt::PbrtOptions {
             binary: args.pbrt.clone(),
             integrator: args.pbrt_integrator.clone(),
+            converged_integrator: args
+                .pbrt_converged_integrator
+                .clone()
+                .unwrap_or_else(|| args.pbrt_integrator.clone()),
         }),
     };
     let options = PeerOptions {
