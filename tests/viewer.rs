@@ -214,3 +214,63 @@ fn view_renders_metropolis_passes_equal_to_a_headless_render() {
     assert!(a.channels["G"].iter().any(|&g| g > 0.0), "the view is black");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// SPPM in the viewer, on each backend: the viewer adds whole passes (its state shrinks
+/// radii pass by pass) and shows the progressive estimate, which the GPU backend reads back
+/// rather than its film (that holds the per-pass estimates): the saved EXR and the screenshot
+/// equal a headless render of as many passes. On the GPU the gathers sum a cell's photons in
+/// the order the scatter's atomics placed them, so the two agree to rounding (1e-5
+/// relative), not bit for bit.
+#[test]
+fn view_renders_sppm_passes_equal_to_a_headless_render() {
+    let Some(_) = with_display() else { return };
+    let scene = common::scene("cornell-spheres.gltf");
+    let dir = std::env::temp_dir().join(format!("pathlight-view-sppm-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut backends = vec!["cpu"];
+    if common::gpu().is_some() {
+        backends.push("gpu");
+    }
+    for backend in backends {
+        let file = |name: &str| -> PathBuf { dir.join(format!("{backend}-{name}")) };
+        let args = [
+            scene.to_str().unwrap(),
+            "--integrator",
+            "sppm",
+            "--backend",
+            backend,
+            "--width",
+            "48",
+            "--height",
+            "48",
+        ];
+        let mut view = with_display().unwrap();
+        view.arg("view").args(args).args(["--frames", "3", "--screenshot"]);
+        view.arg(file("shot.png")).arg("-o").arg(file("view.exr"));
+        let stderr = run(view);
+        assert!(stderr.contains("(3 spp)"), "{backend}: {stderr}");
+        let mut headless = pathlight();
+        headless.arg("render").args(args).args(["--spp", "3", "-o"]).arg(file("head.exr"));
+        headless.arg("-o").arg(file("head.png"));
+        run(headless);
+        let a = pathlight::film::read_exr(&file("view.exr")).unwrap();
+        let b = pathlight::film::read_exr(&file("head.exr")).unwrap();
+        for channel in ["R", "G", "B"] {
+            for (x, y) in a.channels[channel].iter().zip(&b.channels[channel]) {
+                assert!(
+                    (x - y).abs() <= 1e-5 * x.abs().max(y.abs()),
+                    "{backend}: {channel} {x} differs from the headless render's {y}"
+                );
+            }
+        }
+        assert!(a.channels["G"].iter().any(|&g| g > 0.0), "{backend}: the view is black");
+        let worst = png(&file("shot.png"))
+            .pixels()
+            .zip(png(&file("head.png")).pixels())
+            .map(|(p, q)| (0..3).map(|c| (p[c] as i32 - q[c] as i32).abs()).max().unwrap())
+            .max()
+            .unwrap();
+        assert!(worst <= 1, "{backend}: screenshot differs from the headless PNG by {worst} code values");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
