@@ -16,7 +16,8 @@ that differ from pathlight's):
   * `Film "rgb"` written as 32-bit float EXR (`savefp16` false);
   * the integrator with `maxdepth` 100 (pbrt's default is 5; pathlight's is unlimited with
     roulette, and in these scenes a path of more than 100 bounces carries < 0.75¹⁰⁰ of its
-    start);
+    start), or `--max-depth D` where pathlight's renders are bounded too (`bench
+    --max-depth`, e.g. for Metropolis, whose bootstrap spans every depth up to it);
   * `Sampler "zsobol"`, pbrt's default, Owen-scrambled Sobol points as pathlight's default;
   * for `sppm`, the initial radius pathlight's default gives (three pixel footprints at the
     scene's centroid) instead of pbrt's 1 world unit; photons per iteration stay pbrt's
@@ -110,7 +111,7 @@ def convert(args):
         'PixelFilter "box" "float xradius" [0.5] "float yradius" [0.5]',
         f'Film "rgb" "integer xresolution" [{args.width}] "integer yresolution" [{args.height}] '
         '"bool savefp16" false "string filename" ["pbrt.exr"]',
-        f'Integrator "{args.integrator}" "integer maxdepth" [{MAX_DEPTH}]{sppm_radius(args, doc, buffers, eye, forward, fov)}',
+        f'Integrator "{args.integrator}" "integer maxdepth" [{args.max_depth}]{sppm_radius(args, doc, buffers, eye, forward, fov)}',
         "WorldBegin",
     ]
     shapes(doc, buffers, np.eye(4), None, out)
@@ -134,6 +135,7 @@ def main():
     p.add_argument("--width", type=int, default=256)
     p.add_argument("--height", type=int, default=256)
     p.add_argument("--integrator", default="bdpt", help="pbrt's integrator: bdpt, path, ...")
+    p.add_argument("--max-depth", type=int, default=MAX_DEPTH, help="the integrator's maxdepth")
     p.add_argument("--out", required=True, help="the .pbrt file to write")
     args = p.parse_args()
     try:

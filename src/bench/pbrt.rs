@@ -31,6 +31,10 @@ use crate::film::{error_against, LinearImage};
 /// degrees of freedom, as Mitsuba's converged image in `mitsuba_peer.py`).
 pub const CONVERGED_BATCHES: u32 = 16;
 
+/// pbrt's `maxdepth` where pathlight's paths are unbounded (`MAX_DEPTH` in
+/// bench/pbrt_peer.py, whose docstring says why).
+pub const PBRT_MAX_DEPTH: u32 = 100;
+
 /// How to run pbrt.
 #[derive(Clone, Debug)]
 pub struct PbrtOptions {
@@ -62,6 +66,7 @@ fn convert(scene: &BenchScene, options: &PeerOptions, integrator: &str) -> Resul
         .arg(&scene.base)
         .args(["--width", &options.width.to_string(), "--height", &options.height.to_string()])
         .args(["--integrator", integrator])
+        .args(["--max-depth", &options.max_depth.unwrap_or(PBRT_MAX_DEPTH).to_string()])
         .arg("--out")
         .arg(&file);
     if let Some(insert) = &scene.insert {

@@ -82,6 +82,10 @@ pub struct PeerOptions {
     /// one that converges fastest on the scene. A scene lit indirectly converges many times
     /// faster under BDPT.
     pub reference_integrator: Integrator,
+    /// The most scattering events of every path, pathlight's and the peer's (`bench
+    /// --max-depth`); None: unbounded, with roulette (the peers: pbrt's `maxdepth` 100,
+    /// Mitsuba's −1).
+    pub max_depth: Option<u32>,
 }
 
 /// Everything measured on one scene.
@@ -192,6 +196,7 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
         seed: 0x5EED_0001,
         splits: crate::render::default_splits(crate::render::RenderDevice::of(hardware_gpu.map(|c| &**c))),
         light_tracing: true,
+        max_depth: options.max_depth,
         ..RenderSettings::default()
     };
     let mut backend = reference_backend(flat, &settings, hardware_gpu)?;
@@ -205,7 +210,7 @@ pub fn reference(scene: &BenchScene, flat: &Arc<FlatScene>, options: &PeerOption
         backend: backend.name(),
         seed: settings.seed,
         integrator: settings.integrator,
-        max_depth: None,
+        max_depth: settings.max_depth_bound(),
         sampler: settings.sampler,
         splits: settings.splits,
         render_seconds: seconds,
@@ -432,6 +437,7 @@ pub fn run_scene(scene: &BenchScene, options: &PeerOptions) -> Result<PeerResult
         spp: 1 << 20,
         splits: crate::render::default_splits(crate::render::RenderDevice::Cpu),
         light_tracing: true,
+        max_depth: options.max_depth,
         ..RenderSettings::default()
     };
     let dir = options.out.join(&scene.name);

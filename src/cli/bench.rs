@@ -95,6 +95,11 @@ pub struct BenchArgs {
     /// With --peer pbrt: pbrt's integrator (bdpt, path, …).
     #[arg(long, default_value = "bdpt")]
     pbrt_integrator: String,
+    /// The most scattering events of every path: pathlight's series and reference, and with
+    /// --peer pbrt pbrt's `maxdepth` (default: unbounded with roulette; pbrt 100). Metropolis
+    /// (`--integrator mlt`) renders to depth 10 unless told otherwise.
+    #[arg(long)]
+    max_depth: Option<u32>,
     /// With --peer pbrt: the integrator of pbrt's converged image (default: --pbrt-integrator).
     /// For a biased one such as sppm, `path` measures its bias as pathlight's is measured.
     #[arg(long)]
@@ -170,6 +175,18 @@ fn run_peer(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) -> Resul
     if !(args.peer_seconds > 0.0 && args.peer_seconds.is_finite()) {
         return Err(Error::Settings("--peer-seconds must be positive and finite".into()));
     }
+    if args.max_depth.is_some() && args.peer == Some(Peer::Mitsuba) && !args.pathlight_only {
+        return Err(Error::Settings(
+            "--max-depth: the Mitsuba peer's paths are unbounded; bound them with --peer pbrt, or run --pathlight-only"
+                .into(),
+        ));
+    }
+    if args.integrator.contains(&Integrator::Mlt) && args.max_depth.is_none() {
+        return Err(Error::Settings(
+            "--integrator mlt renders paths up to depth 10 unless told otherwise: give --max-depth, so that the reference and the peer are bounded alike"
+                .into(),
+        ));
+    }
     let peer = match args.peer.expect("checked by the caller") {
         Peer::Mitsuba => peer::PeerKind::Mitsuba,
         Peer::Pbrt => peer::PeerKind::Pbrt(pathlight::bench::pbrt::PbrtOptions {
@@ -187,6 +204,7 @@ fn run_peer(args: BenchArgs, root: &Path, gpu: Option<Arc<GpuContext>>) -> Resul
         height: args.height,
         seconds: args.peer_seconds,
         reference_spp: args.reference_spp,
+        max_depth: args.max_depth,
         out: args.out.clone(),
         python: args.python.clone(),
         script: peer::default_script(root),
