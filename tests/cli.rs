@@ -613,6 +613,28 @@ fn pbrt_peer_bench_without_pbrt_is_a_clear_error_after_each_integrators_series()
 }
 
 #[test]
+fn bench_max_depth_bounds_pbrt_and_metropolis_asks_for_it() {
+    // Metropolis renders to depth 10 by default: without a bound the reference would be
+    // unbounded, so the bench asks for one before rendering anything.
+    let dir = temp_dir("bench-depth");
+    let (ok, stderr) = tiny_peer_bench(&dir, &["--peer", "pbrt", "--integrator", "mlt"]);
+    assert!(!ok && stderr.contains("--integrator mlt") && stderr.contains("--max-depth"), "{stderr}");
+    assert!(!dir.join("cornell-box/reference.exr").exists(), "rendered before refusing");
+    let (ok, stderr) = tiny_peer_bench(&dir, &["--peer", "mitsuba", "--max-depth", "7"]);
+    assert!(!ok && stderr.contains("--max-depth: the Mitsuba peer"), "{stderr}");
+    // With pbrt the bound reaches the converted scene (where numpy lets it be converted).
+    let (ok, stderr) =
+        tiny_peer_bench(&dir, &["--peer", "pbrt", "--max-depth", "7", "--pbrt", "/nonexistent/pbrt"]);
+    assert!(!ok, "{stderr}");
+    let numpy = Command::new("python3").args(["-c", "import numpy"]).status().is_ok_and(|s| s.success());
+    if numpy {
+        let converted = std::fs::read_to_string(dir.join("cornell-box/pbrt-bdpt.pbrt")).unwrap();
+        assert!(converted.contains(r#""integer maxdepth" [7]"#), "{converted}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn shards_render_and_merge_from_the_command_line() {
     let dir = temp_dir("shards");
     let scene = common::scene("cornell-box.gltf");
