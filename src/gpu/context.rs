@@ -117,7 +117,8 @@ pub struct Kernel {
     /// traced pass, SPPM's visible points (`sppm_visible`), the photon-map integrator's
     /// samples (`photon_render`).
     pub render: wgpu::ComputePipeline,
-    pub first_hit: wgpu::ComputePipeline,
+    /// Built on first use ([`GpuContext::first_hit_kernel`]).
+    pub first_hit: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// The second pass that adds a traced pass to the film: bidirectional path tracing's
     /// (`bdpt_resolve` in shaders/bdpt.wgsl: the pass and its splats), SPPM's (`sppm_gather`
     /// in shaders/sppm.wgsl: the visible points' gathers). None for the others.
@@ -193,6 +194,20 @@ pub struct GpuContext {
     /// The AOV passes (`aov` and `aov_refine` in shaders/aov.wgsl) per kernel, built on
     /// first use: a render that writes no AOVs never compiles one.
     aov_kernels: Mutex<HashMap<KernelKey, AovKernels>>,
+}
+
+/// The override values of the kernel `key` names: its scene features, its traversal's
+/// short-stack limit, splitting, and (the path tracer's files only declare it) the
+/// irradiance cache.
+fn kernel_constants(key: KernelKey) -> Vec<(&'static str, f64)> {
+    let mut constants = feature_constants(key.features);
+    constants.push(("SHORT_STACK_LIMIT", key.short_stack_limit as f64));
+    constants.push(("SPLITTING", if key.splitting { 1.0 } else { 0.0 }));
+    if key.integrator == Integrator::Path {
+        // Declared by the path tracer's files only (shaders/irradiance_cache.wgsl).
+        constants.push(("IRRADIANCE_CACHE", if key.irradiance_cache { 1.0 } else { 0.0 }));
+    }
+    constants
 }
 
 /// The scene-feature overrides of shaders/features.wgsl for `features`.
@@ -372,20 +387,13 @@ impl GpuContext {
             return Ok(k.clone());
         }
         let source = self.module(key.integrator, key.tables)?;
-        let mut constants = feature_constants(key.features);
-        constants.push(("SHORT_STACK_LIMIT", key.short_stack_limit as f64));
-        constants.push(("SPLITTING", if key.splitting { 1.0 } else { 0.0 }));
-        if key.integrator == Integrator::Path {
-            // Declared by the path tracer's files only (shaders/irradiance_cache.wgsl).
-            constants.push(("IRRADIANCE_CACHE", if key.irradiance_cache { 1.0 } else { 0.0 }));
-        }
+        let constants = kernel_constants(key);
         let render_entry = match key.integrator {
             Integrator::Sppm => "sppm_visible",
             Integrator::Photon => "photon_render",
             Integrator::Path | Integrator::Bdpt | Integrator::Mlt => "render",
         };
         let (render, build_seconds) = self.build_pipeline(&source, render_entry, &constants)?;
-        let (first_hit, _) = self.build_pipeline(&source, "first_hit", &constants)?;
         let build = |entry: &str| self.build_pipeline(&source, entry, &constants).map(|(p, _)| p);
         let resolve = match key.integrator {
             Integrator::Bdpt => Some(build("bdpt_resolve")?),
@@ -404,9 +412,24 @@ impl GpuContext {
             }),
             Integrator::Path | Integrator::Bdpt | Integrator::Mlt => None,
         };
+        let first_hit = std::sync::OnceLock::new();
         let kernel = Arc::new(Kernel { key, render, first_hit, resolve, photon_maps, build_seconds, source });
         cache.insert(key, kernel.clone());
         Ok(kernel)
+    }
+
+    /// `kernel`'s first-hit pass (`first_hit` in shaders/interaction.wgsl), built on first
+    /// use: only tests and the first-hit AOV read it, and a render that does not need it
+    /// should not wait for its build (on lavapipe a pipeline takes a second or more).
+    pub fn first_hit_kernel<'k>(&self, kernel: &'k Kernel) -> Result<&'k wgpu::ComputePipeline> {
+        if let Some(pipeline) = kernel.first_hit.get() {
+            return Ok(pipeline);
+        }
+        let (pipeline, _) =
+            self.build_pipeline(&kernel.source, "first_hit", &kernel_constants(kernel.key))?;
+        // Two threads may both build it; the first to finish is kept.
+        let _ = kernel.first_hit.set(pipeline);
+        Ok(kernel.first_hit.get().expect("set above"))
     }
 
     /// The light tracer's kernel (`trace_caustics` in shaders/light_tracing.wgsl)

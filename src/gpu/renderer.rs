@@ -1078,7 +1078,8 @@ impl GpuBackend {
             cone_spread: cone.spread,
             ..self.frame_params(0, 1, 0, self.settings.height)
         };
-        self.dispatch(&self.kernel.first_hit, params)?;
+        let pipeline = self.ctx.first_hit_kernel(&self.kernel)?;
+        self.dispatch(pipeline, params)?;
         self.read_back(&self.first_hits)
     }
 }
