@@ -20,7 +20,7 @@ fn bdpt_settings(sampler: SamplerKind) -> RenderSettings {
 }
 
 /// Every scene in scenes/ and scenes/hard/, flattened for 32×32.
-pub(super) fn bundled_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
+fn bundled_scenes() -> Vec<(String, pathlight::scene::FlatScene)> {
     let mut files: Vec<String> = SCENES.iter().map(|s| s.to_string()).collect();
     let mut hard: Vec<String> = std::fs::read_dir(common::root().join("scenes/hard"))
         .unwrap()
