@@ -221,19 +221,7 @@ mod tests {
                 assert_eq!(member.offset as usize, *offset, "{name}.{field}: WGSL offset vs Rust offset_of");
             }
         }
-        let constant = |name: &str| -> f64 {
-            let (_, c) = module
-                .constants
-                .iter()
-                .find(|(_, c)| c.name.as_deref() == Some(name))
-                .unwrap_or_else(|| panic!("constant {name} is missing from the WGSL"));
-            match module.global_expressions[c.init] {
-                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
-                naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
-                naga::Expression::Literal(naga::Literal::I32(v)) => v as f64,
-                ref other => panic!("{name}: unexpected initializer {other:?}"),
-            }
-        };
+        let constant = |name: &str| literal_constant(&module, name);
         let shared: &[(&str, f64)] = &[
             ("INVALID_INDEX", layout::INVALID_INDEX as f64),
             ("TRIANGLE_HAS_NORMALS", layout::TRIANGLE_HAS_NORMALS as f64),
@@ -277,54 +265,32 @@ mod tests {
             ("CAUSTIC_FRACTION_BITS", crate::integrator::CAUSTIC_FRACTION_BITS as f64),
             ("CAUSTIC_MAX_FIXED", crate::integrator::CAUSTIC_MAX_FIXED as f64),
         ];
-        let bdpt_files = kernel_files(Integrator::Bdpt);
-        let bdpt =
-            parse_and_validate(&kernel_source(Integrator::Bdpt, UniformTables::default()), &bdpt_files)
-                .unwrap();
-        let bdpt_constant = |name: &str| -> f64 {
-            let (_, c) = bdpt.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name)).unwrap();
-            match bdpt.global_expressions[c.init] {
-                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
-                ref other => panic!("{name}: unexpected initializer {other:?}"),
-            }
-        };
-        let max_vertices = crate::integrator::bdpt::BDPT_MAX_VERTICES as f64;
-        assert_eq!(bdpt_constant("BDPT_MAX_VERTICES"), max_vertices, "BDPT_MAX_VERTICES: WGSL vs Rust");
-        let ring = bdpt_constant("BDPT_CAMERA_RING");
-        assert!(ring > max_vertices && (ring as u32).is_power_of_two(), "BDPT_CAMERA_RING {ring} too small");
         for (name, value) in shared {
             assert_eq!(constant(name), *value, "constant {name}: WGSL vs Rust");
         }
-        let sppm_files = kernel_files(Integrator::Sppm);
-        let sppm =
-            parse_and_validate(&kernel_source(Integrator::Sppm, UniformTables::default()), &sppm_files)
-                .unwrap();
-        let sppm_constant = |name: &str| -> f64 {
-            let (_, c) = sppm.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name)).unwrap();
-            match sppm.global_expressions[c.init] {
-                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
-                naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
-                ref other => panic!("{name}: unexpected initializer {other:?}"),
-            }
+        // Each integrator's own constants, in its own kernel.
+        let module_of = |integrator: Integrator| {
+            parse_and_validate(
+                &kernel_source(integrator, UniformTables::default()),
+                &kernel_files(integrator),
+            )
+            .unwrap()
         };
+        let bdpt = module_of(Integrator::Bdpt);
+        let max_vertices = crate::integrator::bdpt::BDPT_MAX_VERTICES as f64;
+        let bdpt_vertices = literal_constant(&bdpt, "BDPT_MAX_VERTICES");
+        assert_eq!(bdpt_vertices, max_vertices, "BDPT_MAX_VERTICES: WGSL vs Rust");
+        let ring = literal_constant(&bdpt, "BDPT_CAMERA_RING");
+        assert!(ring > max_vertices && (ring as u32).is_power_of_two(), "BDPT_CAMERA_RING {ring} too small");
         use crate::integrator::{photon, sppm};
-        let photon_files = kernel_files(Integrator::Photon);
-        let photon_module =
-            parse_and_validate(&kernel_source(Integrator::Photon, UniformTables::default()), &photon_files)
-                .unwrap();
+        let photon_module = module_of(Integrator::Photon);
         for (name, value) in [
             ("CAUSTIC_RADIUS_PIXELS", photon::CAUSTIC_RADIUS_PIXELS as f64),
             ("GATHER_DELTA_BOUNCES", photon::GATHER_DELTA_BOUNCES as f64),
         ] {
-            let (_, c) =
-                photon_module.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name)).unwrap();
-            let wgsl = match photon_module.global_expressions[c.init] {
-                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
-                naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
-                ref other => panic!("{name}: unexpected initializer {other:?}"),
-            };
-            assert_eq!(wgsl, value, "constant {name}: WGSL vs Rust");
+            assert_eq!(literal_constant(&photon_module, name), value, "constant {name}: WGSL vs Rust");
         }
+        let sppm_module = module_of(Integrator::Sppm);
         for (name, value) in [
             ("SPPM_ALPHA", sppm::SPPM_ALPHA as f64),
             ("PHOTON_STREAM", sppm::PHOTON_STREAM as f64),
@@ -336,7 +302,22 @@ mod tests {
             ("PHOTONS_ALL", sppm::PhotonKind::All.index() as f64),
             ("PHOTONS_CAUSTIC", sppm::PhotonKind::Caustic.index() as f64),
         ] {
-            assert_eq!(sppm_constant(name), value, "constant {name}: WGSL vs Rust");
+            assert_eq!(literal_constant(&sppm_module, name), value, "constant {name}: WGSL vs Rust");
+        }
+    }
+
+    /// The value of `module`'s constant `name`, a literal.
+    fn literal_constant(module: &naga::Module, name: &str) -> f64 {
+        let (_, c) = module
+            .constants
+            .iter()
+            .find(|(_, c)| c.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("constant {name} is missing from the WGSL"));
+        match module.global_expressions[c.init] {
+            naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
+            naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
+            naga::Expression::Literal(naga::Literal::I32(v)) => v as f64,
+            ref other => panic!("{name}: unexpected initializer {other:?}"),
         }
     }
 }
