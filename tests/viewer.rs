@@ -39,6 +39,15 @@ fn with_display() -> Option<Command> {
     Some(c)
 }
 
+/// The largest difference, in 8-bit code values, between two images' pixels in any channel.
+fn worst_code_value_difference(a: &image::RgbaImage, b: &image::RgbaImage) -> i32 {
+    a.pixels()
+        .zip(b.pixels())
+        .map(|(p, q)| (0..3).map(|c| (p[c] as i32 - q[c] as i32).abs()).max().unwrap())
+        .max()
+        .unwrap()
+}
+
 fn run(mut c: Command) -> String {
     let out = c.output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
@@ -122,12 +131,7 @@ fn view_renders_frames_equal_to_a_headless_render() {
             mean > 20.0 && spread > 20.0,
             "{backend}: the screenshot looks blank (mean {mean}, spread {spread})"
         );
-        let worst = shot
-            .pixels()
-            .zip(reference.pixels())
-            .map(|(p, q)| (0..3).map(|c| (p[c] as i32 - q[c] as i32).abs()).max().unwrap())
-            .max()
-            .unwrap();
+        let worst = worst_code_value_difference(&shot, &reference);
         assert!(worst <= 1, "{backend}: screenshot differs from the headless PNG by {worst} code values");
     }
     let _ = std::fs::remove_dir_all(&dir);
@@ -169,12 +173,7 @@ fn the_viewers_denoised_view_equals_a_headless_denoised_render() {
         assert_ne!(a.channels["R"], a.channels["raw.R"], "{backend}: nothing was denoised");
         let (shot, reference) = (png(&file("shot.png")), png(&file("head.png")));
         // Both clamp and sRGB-encode the same denoised values in f32 (as the test above).
-        let worst = shot
-            .pixels()
-            .zip(reference.pixels())
-            .map(|(p, q)| (0..3).map(|c| (p[c] as i32 - q[c] as i32).abs()).max().unwrap())
-            .max()
-            .unwrap();
+        let worst = worst_code_value_difference(&shot, &reference);
         assert!(worst <= 1, "{backend}: the denoised screenshot differs from the headless PNG by {worst}");
     }
     let _ = std::fs::remove_dir_all(&dir);
@@ -264,12 +263,7 @@ fn view_renders_sppm_passes_equal_to_a_headless_render() {
             }
         }
         assert!(a.channels["G"].iter().any(|&g| g > 0.0), "{backend}: the view is black");
-        let worst = png(&file("shot.png"))
-            .pixels()
-            .zip(png(&file("head.png")).pixels())
-            .map(|(p, q)| (0..3).map(|c| (p[c] as i32 - q[c] as i32).abs()).max().unwrap())
-            .max()
-            .unwrap();
+        let worst = worst_code_value_difference(&png(&file("shot.png")), &png(&file("head.png")));
         assert!(worst <= 1, "{backend}: screenshot differs from the headless PNG by {worst} code values");
     }
     let _ = std::fs::remove_dir_all(&dir);

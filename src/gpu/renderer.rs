@@ -757,8 +757,7 @@ impl GpuBackend {
             .ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sppm pass") });
-        encoder.clear_buffer(&state.grid, 0, Some(4));
-        encoder.clear_buffer(&state.grid, SPPM_HEADER_WORDS * 4, Some(state.slots as u64 * 4));
+        Self::encode_clear_map(&mut encoder, state, 0);
         let image = (w.div_ceil(WORKGROUP), h.div_ceil(WORKGROUP), 1);
         let photons = self.photon_groups(state.settings.photons);
         self.encode_steps(
@@ -790,6 +789,14 @@ impl GpuBackend {
                 (None, None) => unreachable!("indirect steps belong to photon mapping"),
             }
         }
+    }
+
+    /// Clears the record count and the slot counts of the map whose first grid word is
+    /// `grid_base`, before its photons are traced (the running totals stay).
+    fn encode_clear_map(encoder: &mut wgpu::CommandEncoder, state: &SppmState, grid_base: u32) {
+        let base = grid_base as u64 * 4;
+        encoder.clear_buffer(&state.grid, base, Some(4));
+        encoder.clear_buffer(&state.grid, base + SPPM_HEADER_WORDS * 4, Some(state.slots as u64 * 4));
     }
 
     /// The workgroups that trace `photons` photons: rows of `width` photons in workgroups
@@ -876,8 +883,7 @@ impl GpuBackend {
                     .ctx
                     .device
                     .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("photon map") });
-                encoder.clear_buffer(&state.grid, base, Some(4));
-                encoder.clear_buffer(&state.grid, base + SPPM_HEADER_WORDS * 4, Some(state.slots as u64 * 4));
+                Self::encode_clear_map(&mut encoder, state, build.grid_base);
                 let groups = self.photon_groups(build.photons);
                 self.encode_steps(&mut encoder, &[(&pipelines.trace_photons, Some(groups))]);
                 self.ctx.queue.submit([encoder.finish()])

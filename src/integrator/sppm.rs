@@ -718,7 +718,7 @@ impl PhotonGrid {
                 // ([`facing_each_other`]): within one radius of an edge the disk πr² reaches
                 // past the visible point's surface, and the photons on the surface meeting it
                 // there stand in for that part.
-                if !transmits && !facing_each_other(d, si, ng, photon, radius) {
+                if !transmits && !facing_each_other(d, si, photon, radius) {
                     continue;
                 }
                 // Back-facing photons: one that arrived on the other side of its own surface
@@ -753,8 +753,8 @@ impl PhotonGrid {
 /// every curvature radius above 5r, as the radius shrinks every surface's.
 pub const PLANE_TOLERANCE: f32 = 0.1;
 
-/// Can photon `photon`, `d` from the visible point `si` (geometric normal `ng`) gathering
-/// within `radius`, light it? Each must lie in front of the other's surface, as seen from
+/// Can photon `photon`, `d` from the visible point `si` gathering within `radius`, light
+/// it? Each must lie in front of the other's surface, as seen from
 /// the side each was reached from (within [`PLANE_TOLERANCE`] of the radius). A photon on a
 /// wall meeting the floor at a visible point's edge does; one on the far side of a thin
 /// wall, or on a box's top seen from the floor beside it, does not. Until 2026-12-05 this
@@ -764,7 +764,8 @@ pub const PLANE_TOLERANCE: f32 = 0.1;
 /// 1.2·10⁻⁴ (bench/RESULTS.md, "SPPM against pbrt-v4's sppm"). Keeping every photon, as
 /// pbrt-v4 does, gave 0.9·10⁻⁴ there but let light through thin walls: the lamp room's mean
 /// 5% bright (+1.5% with the test), the slit room's +187% (+114%).
-fn facing_each_other(d: Vec3, si: &SurfaceInteraction, ng: Vec3, photon: &Photon, radius: f32) -> bool {
+fn facing_each_other(d: Vec3, si: &SurfaceInteraction, photon: &Photon, radius: f32) -> bool {
+    let ng = si.n_geometric;
     let n_point = if si.wo_world.dot(ng) > 0.0 { ng } else { -ng };
     let n_photon = if photon.wi.dot(photon.n) > 0.0 { photon.n } else { -photon.n };
     let tolerance = PLANE_TOLERANCE * radius;
