@@ -70,14 +70,17 @@ fn bdpt_camera_slot(i: u32) -> u32 {
 
 
 // Twin of `light_subpath`: fills `bdpt_light` from the light stream (the sampler is
-// the light path's when called).
-fn bdpt_light_subpath() {
+// the light path's when called). `fixed_length` 0: BDPT's own, ended by Russian roulette or
+// at BDPT_MAX_VERTICES (a truncation, counted); otherwise exactly that many vertices, or
+// fewer where the walk cannot go on, without roulette (`SubpathLength::Fixed`, Metropolis).
+fn bdpt_light_subpath(fixed_length: u32) {
     bdpt_light_count = 0u;
     var y0: BdptVertex;
     var walk: BdptWalk;
     if (!bdpt_light_origin(&y0, &walk)) {
         return;
     }
+    walk.roulette = fixed_length == 0u;
     bdpt_light[0] = y0;
     bdpt_light_count = 1u;
     loop {
@@ -89,6 +92,12 @@ fn bdpt_light_subpath() {
         if (!bdpt_trace(&walk, bdpt_light[here - 1u], &v, &si, &material, &bsdf)) {
             return;
         }
+        if (fixed_length == here + 1u) {
+            // The last vertex: a join evaluates it, nothing scatters from it.
+            bdpt_light[here] = v;
+            bdpt_light_count = here + 1u;
+            return;
+        }
         let rev = bdpt_scatter(&walk, &v, si, bsdf, bdpt_light[here - 1u], here);
         bdpt_light[here] = v;
         bdpt_light_count = here + 1u;
@@ -97,7 +106,9 @@ fn bdpt_light_subpath() {
         }
         bdpt_light[here - 1u].pdf_rev = rev;
         if (bdpt_light_count == BDPT_MAX_VERTICES) {
-            atomicAdd(&bdpt_state.truncated, 1u);
+            if (fixed_length == 0u) {
+                atomicAdd(&bdpt_state.truncated, 1u);
+            }
             return;
         }
     }
@@ -277,45 +288,60 @@ fn bdpt_emitter_hit(pt: BdptVertex, ptm: BdptVertex, si: SurfaceInteraction, mat
     return value * bdpt_mis_weight(0u, t, join);
 }
 
-// Twin of `join_camera`: t = 1, light vertex y_{s−1} joined to the camera at `x0` and
-// splatted (divided by the number of light paths) where it projects.
-fn bdpt_join_camera(x0: BdptVertex, s: u32) {
+// A t = 1 join's pixel and weighted value; `valid` false where it carries nothing.
+struct BdptCameraJoin {
+    pixel: u32,
+    value: vec3<f32>,
+    valid: bool,
+}
+
+// Twin of `join_camera`: t = 1, light vertex y_{s−1} joined to the camera at `x0`, and the
+// pixel it projects to.
+fn bdpt_join_camera_value(x0: BdptVertex, s: u32) -> BdptCameraJoin {
+    let none = BdptCameraJoin(0u, vec3<f32>(0.0), false);
     var alpha_seed = 0u;
     if (FEATURE_ALPHA) {
         alpha_seed = rng_next_u32();
     }
     let qs = bdpt_light[s - 1u];
     if (!bdpt_has_projection() || qs.kind != VERTEX_SURFACE || !qs.connectible) {
-        return;
+        return none;
     }
     let proj = project_to_pixel(qs.p, frame.width, frame.height);
     if (!proj.valid) {
-        return;
+        return none;
     }
     let seen = bdpt_seen_from(qs, -proj.direction);
     let f_cos = bdpt_f_cos(seen, qs.wo_world);
     if (max_element(f_cos) <= 0.0) {
-        return;
+        return none;
     }
     let ng = qs.n;
     let cos_in = abs(dot(qs.wo_world, ng));
     if (cos_in == 0.0) {
-        return;
+        return none;
     }
     if (intersect_any(spawn_ray_to(qs.p, qs.p_error, ng, camera.position), alpha_seed)) {
-        return;
+        return none;
     }
     let c = proj.cos_theta;
     let value = qs.beta * f_cos * abs(dot(proj.direction, ng))
         / (cos_in * pinhole_pixel_area(frame.width, frame.height) * c * c * c * proj.distance2);
     if (!is_finite_vec3(value)) {
-        return;
+        return none;
     }
     var join = bdpt_join_none();
     join.light_end = bdpt_convert_density(x0, bdpt_camera_pdf_direction(proj.direction), qs);
     join.light_before = bdpt_convert_density(qs, bdpt_pdf(seen, qs.wo_world), bdpt_light[s - 2u]);
-    let weighted = value * bdpt_mis_weight(s, 1u, join);
-    caustic_splat(proj.pixel, weighted * (1.0 / f32(frame.width * frame.height)));
+    return BdptCameraJoin(proj.pixel, value * bdpt_mis_weight(s, 1u, join), true);
+}
+
+// BDPT's t = 1 join, splatted (divided by the number of light paths) where it projects.
+fn bdpt_join_camera(x0: BdptVertex, s: u32) {
+    let j = bdpt_join_camera_value(x0, s);
+    if (j.valid) {
+        caustic_splat(j.pixel, j.value * (1.0 / f32(frame.width * frame.height)));
+    }
 }
 
 // Twin of `join_light_sample`: s = 1 at camera vertex `pt` (x_{t−1}, reached from `ptm`).
@@ -447,7 +473,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
 
     // The light subpath and its t = 1 joins, from the light path's stream.
     sampler_start(SAMPLER_INDEPENDENT, pixel, LIGHT_PATH_STREAM, k, frame.seed);
-    bdpt_light_subpath();
+    bdpt_light_subpath(0u);
     var x0 = bdpt_endpoint(VERTEX_CAMERA, camera.position, camera.forward, 0u, vec3<f32>(1.0), 1.0);
     // An orthographic camera's direction is a delta: no strategy can join to it.
     x0.delta = camera.projection != PROJECTION_PERSPECTIVE;

@@ -147,11 +147,13 @@ struct BdptWalk {
     roulette_scale: f32,
     // Carries importance (the light subpath), not radiance.
     importance: bool,
+    // Plays Russian roulette (Metropolis's fixed-length subpaths do not).
+    roulette: bool,
 }
 
 fn bdpt_walk_new(ray: Ray, beta: vec3<f32>, pdf_solid_angle: f32, importance: bool) -> BdptWalk {
     let roulette_scale = select(1.0, 1.0 / max_element(beta), importance);
-    return BdptWalk(ray, beta, pdf_solid_angle, 1.0, 0u, roulette_scale, importance);
+    return BdptWalk(ray, beta, pdf_solid_angle, 1.0, 0u, roulette_scale, importance, true);
 }
 
 // Twin of `Walk::trace`: traces the walk's ray from `prev`; false where it reaches nothing
@@ -244,7 +246,9 @@ fn bdpt_scatter(walk: ptr<function, BdptWalk>, v: ptr<function, BdptVertex>, si:
     }
     var plays = false;
     var q = 1.0;
-    if ((*walk).importance) {
+    if (!(*walk).roulette) {
+        plays = false;
+    } else if ((*walk).importance) {
         plays = here >= LIGHT_RR_MIN_VERTICES;
         if (plays) {
             q = survival_probability((*walk).beta, (*walk).roulette_scale);

@@ -158,6 +158,10 @@ struct FrameParams {
     photon_cell: f32,
     photon_global_radius: f32,
     photon_caustic_photons: u32,
+    mlt_items: u32,
+    mlt_mutations: u32,
+    mlt_large_step: f32,
+    mlt_scale: f32,
 }
 
 // Twin of `SppmPixelGpu` (src/scene/layout.rs).
@@ -187,6 +191,30 @@ struct SppmPhoton {
     position_wi_x: vec4<f32>,
     wi_yz_beta_rg: vec4<f32>,
     beta_b_normal: vec4<f32>,
+}
+
+// Twin of `MltNumberGpu` (the top bit of `modified` and `backup_modified`: set).
+struct MltNumberGpu {
+    value: f32,
+    backup_value: f32,
+    modified: u32,
+    backup_modified: u32,
+}
+
+// Twin of `MltChainGpu`.
+struct MltChainGpu {
+    sampler_rng: vec4<u32>,
+    chain_rng: vec4<u32>,
+    value: vec3<f32>,
+    scalar_target: f32,
+    pixel: u32,
+    depth: u32,
+    iteration: u32,
+    last_large_step: u32,
+    start: u32,
+    remaining: u32,
+    used: u32,
+    started: u32,
 }
 
 struct IrradianceRecordGpu {

@@ -1,5 +1,6 @@
 // Twin of src/sampling/ (rng.rs, sobol.rs, warp.rs): the same integer arithmetic, so a sample with the
-// same pixel, index and seed draws the same numbers as on the CPU.
+// same pixel, index and seed draws the same numbers as on the CPU. At the end, Metropolis's
+// primary sample (twin of `MltSampler` in src/integrator/mlt.rs).
 
 const PI: f32 = 3.14159265358979323846;
 const INV_PI: f32 = 0.31830988618379067154;
@@ -27,6 +28,7 @@ fn pcg4d(v_in: vec4<u32>) -> vec4<u32> {
 // independent sampler the xoshiro state.
 const SAMPLER_SOBOL: u32 = 0u;
 const SAMPLER_INDEPENDENT: u32 = 1u;
+// SAMPLER_MLT (2): a Metropolis chain's primary sample (below).
 
 var<private> path_sampler_kind: u32;
 var<private> rng_s: vec4<u32>;
@@ -148,6 +150,10 @@ fn sobol_next_dimension() -> vec2<u32> {
 }
 
 fn rng_next_u32() -> u32 {
+    if (MLT_SAMPLER && path_sampler_kind == SAMPLER_MLT) {
+        // Twin of `MltSampler`'s u32: the number scaled to 32 bits.
+        return u32(mlt_next() * 4294967296.0);
+    }
     if (path_sampler_kind == SAMPLER_SOBOL) {
         let d = sobol_next_dimension();
         return hash_u32(d.x ^ d.y);
@@ -157,6 +163,9 @@ fn rng_next_u32() -> u32 {
 
 // Uniform in [0, 1).
 fn rng_next_1d() -> f32 {
+    if (MLT_SAMPLER && path_sampler_kind == SAMPLER_MLT) {
+        return mlt_next();
+    }
     if (path_sampler_kind == SAMPLER_SOBOL) {
         let d = sobol_next_dimension();
         return fraction_to_f32(owen_scramble_reversed(d.y, hash_u32(d.x ^ 1u)));
@@ -173,6 +182,11 @@ fn sobol_scrambled_point(reversed: vec2<u32>, seed: u32) -> vec2<f32> {
 }
 
 fn rng_next_2d() -> vec2<f32> {
+    if (MLT_SAMPLER && path_sampler_kind == SAMPLER_MLT) {
+        let x = mlt_next();
+        let y = mlt_next();
+        return vec2<f32>(x, y);
+    }
     if (path_sampler_kind == SAMPLER_SOBOL) {
         let d = sobol_next_dimension();
         return sobol_scrambled_point(vec2<u32>(d.y, sobol_second_reversed(d.y)), d.x);
@@ -203,6 +217,9 @@ fn sobol_third_fourth(i: u32) -> vec2<u32> {
 // pairs, the second the third and fourth components of the index its partner's dimension
 // shuffled (src/sampling/sobol.rs explains).
 fn rng_next_direction_2d() -> vec2<f32> {
+    if (MLT_SAMPLER && path_sampler_kind == SAMPLER_MLT) {
+        return rng_next_2d();
+    }
     if (path_sampler_kind != SAMPLER_SOBOL) {
         return rng_next_2d();
     }
@@ -263,4 +280,137 @@ fn sample_uniform_triangle(u: vec2<f32>) -> vec3<f32> {
         b0 = u.x - b1;
     }
     return vec3<f32>(b0, b1, 1.0 - b0 - b1);
+}
+
+// ---- Metropolis's primary sample
+
+// Twin of `MltSampler` in src/integrator/mlt.rs: a Metropolis chain's primary sample (Kelemen
+// et al. 2002), mutated lazily as it is read (pbrt-v4 `MLTSampler`). The rng_next_* functions
+// of shaders/sampling.wgsl read from it while `path_sampler_kind` is SAMPLER_MLT, so the
+// bidirectional walks draw their numbers from it unchanged. Only the Metropolis kernel sets
+// MLT_SAMPLER; in every other kernel the branches to it are constant false and the driver
+// drops them and the private array with them.
+override MLT_SAMPLER: bool = false;
+
+const SAMPLER_MLT: u32 = 2u;
+
+// Twin of `Stream`: the camera, light and connection streams; number j of stream s is entry
+// 3j + s.
+const MLT_STREAM_CAMERA: u32 = 0u;
+const MLT_STREAM_LIGHT: u32 = 1u;
+const MLT_STREAM_CONNECTION: u32 = 2u;
+const MLT_STREAMS: u32 = 3u;
+
+// The most numbers one sample reads from a stream (twin of `MLT_NUMBERS_PER_STREAM`, which
+// counts them): at the deepest path Metropolis renders (MAX_MLT_DEPTH = 15) the camera
+// stream reads 3 (strategy, film point) + 16 alpha seeds + 15 scatterings × 3 = 64, the
+// light stream 7 (the origin) + 15 + 14 × 3 = 64, the connection stream at most 3. A read
+// past it sets `mlt_overflow`, and the sample is dropped and counted (`MLT_COUNTER_OVERFLOWS` in shaders/mlt.wgsl).
+const MLT_NUMBERS_PER_STREAM: u32 = 64u;
+const MLT_NUMBERS: u32 = MLT_NUMBERS_PER_STREAM * MLT_STREAMS;
+
+// Small steps' standard deviation (twin of `DEFAULT_SIGMA`).
+const MLT_SIGMA: f32 = 0.01;
+
+// `MltNumberGpu`'s flag bit: the number has been read by some state (twin of `set`).
+const MLT_SET: u32 = 0x80000000u;
+
+// The chain's primary sample while a dispatch runs it (loaded from and stored back to
+// `mlt_numbers` in shaders/mlt.wgsl), the entries read so far, and the sampler's state. The
+// sampler's own random numbers are xoshiro128** in `rng_s` (twin of `MltSampler::rng`).
+var<private> mlt_numbers_private: array<MltNumberGpu, MLT_NUMBERS>;
+var<private> mlt_used: u32;
+var<private> mlt_iteration: u32;
+var<private> mlt_last_large_step: u32;
+var<private> mlt_large_step: bool;
+var<private> mlt_stream: u32;
+var<private> mlt_index: u32;
+var<private> mlt_overflow: bool;
+
+fn mlt_sampler_next_1d() -> f32 {
+    return fraction_to_f32(xoshiro_next());
+}
+
+// Twin of `MltSampler::new`, its xoshiro state already in `rng_s`: every number unread, the
+// first state a large step.
+fn mlt_sampler_fresh() {
+    path_sampler_kind = SAMPLER_MLT;
+    for (var i = 0u; i < MLT_NUMBERS; i++) {
+        mlt_numbers_private[i] = MltNumberGpu(0.0, 0.0, 0u, 0u);
+    }
+    mlt_used = 0u;
+    mlt_iteration = 0u;
+    mlt_last_large_step = 0u;
+    mlt_large_step = true;
+    mlt_stream = 0u;
+    mlt_index = 0u;
+    mlt_overflow = false;
+}
+
+// Twin of `MltSampler::start_iteration`.
+fn mlt_start_iteration() {
+    mlt_iteration += 1u;
+    mlt_large_step = mlt_sampler_next_1d() < frame.mlt_large_step;
+    mlt_overflow = false;
+}
+
+// Twin of `MltSampler::accept`.
+fn mlt_accept() {
+    if (mlt_large_step) {
+        mlt_last_large_step = mlt_iteration;
+    }
+}
+
+// Twin of `MltSampler::reject`: every number the proposal changed gets its value back.
+fn mlt_reject() {
+    for (var i = 0u; i < mlt_used; i++) {
+        let x = mlt_numbers_private[i];
+        if ((x.modified & ~MLT_SET) == mlt_iteration) {
+            mlt_numbers_private[i] = MltNumberGpu(x.backup_value, x.backup_value, x.backup_modified, x.backup_modified);
+        }
+    }
+    mlt_iteration -= 1u;
+}
+
+// Twin of `StreamNumbers::start_stream`.
+fn mlt_start_stream(stream: u32) {
+    mlt_stream = stream;
+    mlt_index = 0u;
+}
+
+// Twin of `MltSampler::next`: the stream's next number, brought up to this iteration.
+fn mlt_next() -> f32 {
+    if (mlt_index >= MLT_NUMBERS_PER_STREAM) {
+        mlt_overflow = true;
+        return 0.5;
+    }
+    let i = mlt_index * MLT_STREAMS + mlt_stream;
+    mlt_index += 1u;
+    mlt_used = max(mlt_used, i + 1u);
+    var x = mlt_numbers_private[i];
+    let was_set = (x.modified & MLT_SET) != 0u;
+    var modified = x.modified & ~MLT_SET;
+    // Untouched since before the last accepted large step: that step replaced it.
+    if (was_set && modified < mlt_last_large_step) {
+        x.value = mlt_sampler_next_1d();
+        modified = mlt_last_large_step;
+    }
+    x.backup_value = x.value;
+    x.backup_modified = modified | select(0u, MLT_SET, was_set);
+    if (mlt_large_step || !was_set) {
+        x.value = mlt_sampler_next_1d();
+    } else {
+        // The small steps it missed add up to one of deviation σ·√n.
+        let missed = f32(mlt_iteration - modified);
+        let u1 = 1.0 - mlt_sampler_next_1d();
+        let u2 = mlt_sampler_next_1d();
+        let normal = sqrt(-2.0 * log(u1)) * cos(2.0 * PI * u2);
+        let moved = x.value + normal * MLT_SIGMA * sqrt(missed);
+        let wrapped = moved - floor(moved);
+        // A tiny negative step can round up to exactly 1.
+        x.value = select(0.0, wrapped, wrapped < 1.0);
+    }
+    x.modified = mlt_iteration | MLT_SET;
+    mlt_numbers_private[i] = x;
+    return x.value;
 }

@@ -1,5 +1,5 @@
 //! Metropolis light transport (issue 45) against the path tracer, BDPT and analytic answers,
-//! on the CPU backend (the GPU backend has no Metropolis kernel yet and refuses it).
+//! on the CPU backend; tests/gpu/mlt.rs shows the GPU backend makes the same chains.
 //!
 //! A Metropolis image's pixels are not independent: one pass's pixels share its
 //! normalisation, and a chain wanders across neighbouring pixels. Sums of per-pixel

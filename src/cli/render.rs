@@ -270,6 +270,13 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
             mlt.passes,
             mlt.acceptance_rate()
         );
+        if mlt.dropped_samples > 0 {
+            eprintln!(
+                "warning: mlt: {} samples read more than {} numbers from one stream and were dropped (a bias: this is a bug, please report it)",
+                mlt.dropped_samples,
+                pathlight::integrator::mlt::MLT_NUMBERS_PER_STREAM
+            );
+        }
         if mlt.passes_without_light > 0 {
             eprintln!(
                 "warning: mlt: the bootstrap of {} of {} passes found no path that carries light (up to --max-depth {}); their images are black",

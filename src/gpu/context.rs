@@ -115,13 +115,14 @@ pub struct Kernel {
     pub key: KernelKey,
     /// Each pass's per-pixel work: the path tracer's samples, bidirectional path tracing's
     /// traced pass, SPPM's visible points (`sppm_visible`), the photon-map integrator's
-    /// samples (`photon_render`).
+    /// samples (`photon_render`), Metropolis's bootstrap and chains (`mlt_render`).
     pub render: wgpu::ComputePipeline,
     /// Built on first use ([`GpuContext::first_hit_kernel`]).
     pub first_hit: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// The second pass that adds a traced pass to the film: bidirectional path tracing's
     /// (`bdpt_resolve` in shaders/bdpt.wgsl: the pass and its splats), SPPM's (`sppm_gather`
-    /// in shaders/sppm.wgsl: the visible points' gathers). None for the others.
+    /// in shaders/sppm.wgsl: the visible points' gathers), Metropolis's (`mlt_resolve`: the
+    /// pass's splats). None for the others.
     pub resolve: Option<wgpu::ComputePipeline>,
     /// Photon mapping's map passes (SPPM's every pass, the photon-map integrator's once).
     pub photon_maps: Option<PhotonMapPipelines>,
@@ -149,11 +150,15 @@ const KERNEL_BINDINGS: u32 = 27;
 /// Photon mapping's own bindings, after those: 27 to 31 (shaders/sppm.wgsl).
 const SPPM_BINDINGS: u32 = 5;
 
+/// Metropolis's own bindings, after those: 27 to 30 (shaders/mlt.wgsl).
+const MLT_BINDINGS: u32 = 4;
+
 /// The bindings of `integrator`'s kernel.
 pub(crate) fn kernel_bindings(integrator: Integrator) -> u32 {
     match integrator {
         Integrator::Sppm | Integrator::Photon => KERNEL_BINDINGS + SPPM_BINDINGS,
-        Integrator::Path | Integrator::Bdpt | Integrator::Mlt => KERNEL_BINDINGS,
+        Integrator::Mlt => KERNEL_BINDINGS + MLT_BINDINGS,
+        Integrator::Path | Integrator::Bdpt => KERNEL_BINDINGS,
     }
 }
 
@@ -206,6 +211,10 @@ fn kernel_constants(key: KernelKey) -> Vec<(&'static str, f64)> {
     if key.integrator == Integrator::Path {
         // Declared by the path tracer's files only (shaders/irradiance_cache.wgsl).
         constants.push(("IRRADIANCE_CACHE", if key.irradiance_cache { 1.0 } else { 0.0 }));
+    }
+    if key.integrator == Integrator::Mlt {
+        // The samplers read a chain's primary sample (shaders/sampling.wgsl).
+        constants.push(("MLT_SAMPLER", 1.0));
     }
     constants
 }
@@ -391,14 +400,16 @@ impl GpuContext {
         let render_entry = match key.integrator {
             Integrator::Sppm => "sppm_visible",
             Integrator::Photon => "photon_render",
-            Integrator::Path | Integrator::Bdpt | Integrator::Mlt => "render",
+            Integrator::Mlt => "mlt_render",
+            Integrator::Path | Integrator::Bdpt => "render",
         };
         let (render, build_seconds) = self.build_pipeline(&source, render_entry, &constants)?;
         let build = |entry: &str| self.build_pipeline(&source, entry, &constants).map(|(p, _)| p);
         let resolve = match key.integrator {
             Integrator::Bdpt => Some(build("bdpt_resolve")?),
             Integrator::Sppm => Some(build("sppm_gather")?),
-            Integrator::Path | Integrator::Photon | Integrator::Mlt => None,
+            Integrator::Mlt => Some(build("mlt_resolve")?),
+            Integrator::Path | Integrator::Photon => None,
         };
         let photon_maps = match key.integrator {
             Integrator::Sppm | Integrator::Photon => Some(PhotonMapPipelines {

@@ -122,7 +122,37 @@ pub struct GpuBackend {
     scene_radius: f32,
     /// Photon mapping's buffers and passes (`--integrator sppm`), else None.
     sppm: Option<SppmState>,
+    /// Metropolis's buffers and passes (`--integrator mlt`), else None.
+    mlt: Option<MltState>,
 }
+
+/// Metropolis's state on the device (shaders/mlt.wgsl's bindings 27 to 30) and on the host.
+struct MltState {
+    plan: crate::integrator::mlt::PassPlan,
+    /// `MltChainGpu` per chain.
+    chains: wgpu::Buffer,
+    /// `MLT_NUMBERS` `MltNumberGpu`s per chain.
+    numbers: wgpu::Buffer,
+    /// The bootstrap samples' targets.
+    targets: wgpu::Buffer,
+    /// Rays, accepted mutations and dropped samples as 64-bit totals.
+    counters: wgpu::Buffer,
+    /// The pass whose splats `caustics` holds, and the factor that makes them its image.
+    pass: Option<(u32, f32)>,
+    /// Passes traced, passes whose bootstrap found no light, and mutations proposed since
+    /// the last reset.
+    passes: u64,
+    passes_without_light: u64,
+    proposed: u64,
+    /// Measured seconds per chain-mutation, and the bound [`GpuBackend::software_gpu_sample_cap`]
+    /// keeps for pixel-samples (see `seconds_per_sample_bound`).
+    seconds_per_mutation: Option<f64>,
+    seconds_per_mutation_bound: Option<f64>,
+}
+
+/// Numbers a chain keeps room for: `MLT_NUMBERS_PER_STREAM` for each of the three streams
+/// (`MLT_NUMBERS` in shaders/sampling.wgsl).
+const MLT_NUMBERS: u64 = 3 * crate::integrator::mlt::MLT_NUMBERS_PER_STREAM as u64;
 
 /// The grid words before its slots (`SPPM_HEADER_WORDS` in shaders/sppm.wgsl): this pass's
 /// records, the cell edge, photon rays, stored and dropped records as 64-bit totals, and
@@ -344,6 +374,8 @@ impl GpuBackend {
         });
         // Light tracing as the CPU backend decides it (`CpuBackend::light_traces_caustics`).
         let bdpt = settings.integrator == Integrator::Bdpt;
+        // Metropolis splats into the same image as BDPT's t = 1 strategies.
+        let splats = bdpt || settings.integrator == Integrator::Mlt;
         // Under an irradiance cache the gathers see the caustics themselves (as on the CPU).
         let caustics_kernel = if settings.integrator == Integrator::Path
             && settings.irradiance_cache.is_none()
@@ -356,7 +388,7 @@ impl GpuBackend {
         };
         // Two words per channel (a 64-bit fixed-point sum) per pixel: the light tracer's
         // image, or bidirectional path tracing's t = 1 splats.
-        let caustic_pixels = if caustics_kernel.is_some() || bdpt { pixels } else { 1 };
+        let caustic_pixels = if caustics_kernel.is_some() || splats { pixels } else { 1 };
         let caustics = zeroed("light-traced image", caustic_pixels * 6 * 4)?;
         // The count (padded to 16 bytes), then a vec4 per pixel.
         let bdpt_state = zeroed("bidirectional pass", 16 + 16 * if bdpt { pixels } else { 1 })?;
@@ -479,6 +511,47 @@ impl GpuBackend {
         } else {
             None
         };
+        let mlt = if settings.integrator == Integrator::Mlt {
+            use crate::integrator::mlt::PassPlan;
+            use crate::scene::layout::{MltChainGpu, MltNumberGpu};
+            let plan = PassPlan::of(
+                &settings.mlt,
+                settings.max_depth_bound().unwrap_or(u32::MAX),
+                settings.width,
+                settings.height,
+            );
+            // A chain counts its iterations and its mutations in 32 bits (below the `set`
+            // flag's bit), and the bootstrap's samples are indexed in 32 bits.
+            let per_chain = plan.mutations.div_ceil(plan.chains);
+            if per_chain >= 1 << 31 || plan.bootstrap > u32::MAX as u64 {
+                return Err(Error::Settings(format!(
+                    "--integrator mlt on the GPU: {per_chain} mutations per chain and {} bootstrap samples per pass; the GPU's chains count below 2³¹ mutations each (raise --chains or lower --mutations-per-pixel)",
+                    plan.bootstrap
+                )));
+            }
+            let chain_bytes = std::mem::size_of::<MltChainGpu>() as u64;
+            let number_bytes = std::mem::size_of::<MltNumberGpu>() as u64;
+            let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+            let state = MltState {
+                plan,
+                chains: zeroed("Metropolis chains", plan.chains * chain_bytes)?,
+                numbers: zeroed("Metropolis primary samples", plan.chains * MLT_NUMBERS * number_bytes)?,
+                targets: zeroed("Metropolis bootstrap", plan.bootstrap * 4)?,
+                counters: zeroed("Metropolis counters", 6 * 4)?,
+                pass: None,
+                passes: 0,
+                passes_without_light: 0,
+                proposed: 0,
+                seconds_per_mutation: None,
+                seconds_per_mutation_bound: None,
+            };
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                return Err(Error::Gpu(format!("out of GPU memory for the Metropolis chains: {e}")));
+            }
+            Some(state)
+        } else {
+            None
+        };
         let buffers = [
             &nodes,
             &triangles,
@@ -514,6 +587,10 @@ impl GpuBackend {
                 [&state.pixels, &state.visible, &state.photons, &state.grid, &state.order].map(|b| b.clone()),
             );
         }
+        if let Some(state) = &mlt {
+            bind_buffers
+                .extend([&state.chains, &state.numbers, &state.targets, &state.counters].map(|b| b.clone()));
+        }
         let bind_group = Self::make_bind_group(device, &kernel, &bind_buffers);
         ctx.check()?;
         Ok(GpuBackend {
@@ -537,7 +614,7 @@ impl GpuBackend {
             seconds_per_sample_bound: None,
             upload_seconds: start.elapsed().as_secs_f64(),
             caustics,
-            camera_sees_only_delta: (caustics_kernel.is_some() || bdpt)
+            camera_sees_only_delta: (caustics_kernel.is_some() || splats)
                 && crate::integrator::delta_view::camera_sees_only_delta_surfaces(scene, &scene.camera),
             bdpt_state,
             bdpt_pass: None,
@@ -551,6 +628,7 @@ impl GpuBackend {
             ic_scene: settings.irradiance_cache.is_some().then(|| scene.clone()),
             irradiance_cache: None,
             sppm,
+            mlt,
             ctx,
         })
     }
@@ -759,7 +837,7 @@ impl GpuBackend {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("sppm pass") });
         Self::encode_clear_map(&mut encoder, state, 0);
         let image = (w.div_ceil(WORKGROUP), h.div_ceil(WORKGROUP), 1);
-        let photons = self.photon_groups(state.settings.photons);
+        let photons = self.item_groups(state.settings.photons);
         self.encode_steps(
             &mut encoder,
             &[(&self.kernel.render, Some(image)), (&maps.trace_photons, Some(photons))],
@@ -799,11 +877,12 @@ impl GpuBackend {
         encoder.clear_buffer(&state.grid, base + SPPM_HEADER_WORDS * 4, Some(state.slots as u64 * 4));
     }
 
-    /// The workgroups that trace `photons` photons: rows of `width` photons in workgroups
-    /// of 8 rows, at most 65,535 in y and the rest in z layers (`sppm_trace_photons`).
-    fn photon_groups(&self, photons: u32) -> (u32, u32, u32) {
+    /// The workgroups of a dispatch over `items` items (photons, or Metropolis's bootstrap
+    /// samples and chains): rows of `width` items in workgroups of 8 rows, at most 65,535 in
+    /// y and the rest in z layers (`sppm_trace_photons`, `mlt_item`).
+    fn item_groups(&self, items: u32) -> (u32, u32, u32) {
         let w = self.settings.width;
-        let row_groups = photons.div_ceil(w).div_ceil(WORKGROUP).max(1);
+        let row_groups = items.div_ceil(w).div_ceil(WORKGROUP).max(1);
         let y_groups = row_groups.min(65_535);
         (w.div_ceil(WORKGROUP), y_groups, row_groups.div_ceil(y_groups))
     }
@@ -884,7 +963,7 @@ impl GpuBackend {
                     .device
                     .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("photon map") });
                 Self::encode_clear_map(&mut encoder, state, build.grid_base);
-                let groups = self.photon_groups(build.photons);
+                let groups = self.item_groups(build.photons);
                 self.encode_steps(&mut encoder, &[(&pipelines.trace_photons, Some(groups))]);
                 self.ctx.queue.submit([encoder.finish()])
             };
@@ -928,6 +1007,132 @@ impl GpuBackend {
             self.wait(index)?;
         }
         Ok(())
+    }
+
+    /// Metropolis's pass `k` traced into `caustics` (shaders/mlt.wgsl's steps 1 to 3): the
+    /// bootstrap (`mlt_render` with no mutations), its targets read back and the chains'
+    /// starts drawn from them on the host (`chain_starts`, as the CPU backend draws them),
+    /// then the chains' first states and their mutations in dispatches sized to about [`TARGET_SUBMIT_SECONDS`] (on a software
+    /// GPU also to its loop budget, [`SOFTWARE_GPU_GROUP_SECONDS`]).
+    fn trace_mlt_pass(&mut self, k: u32) -> Result<()> {
+        use crate::integrator::mlt::chain_starts;
+        use crate::scene::layout::MltChainGpu;
+        let kernel = self.kernel.clone();
+        let state = self.mlt.as_ref().expect("a Metropolis backend has its state");
+        let plan = state.plan;
+        let base = self.frame_params(k, 1, 0, self.settings.height);
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("mlt splats") });
+        encoder.clear_buffer(&self.caustics, 0, None);
+        self.ctx.queue.submit([encoder.finish()]);
+        let bootstrap = plan.bootstrap as u32;
+        let index = self.submit_groups(
+            &kernel.render,
+            FrameParams { mlt_items: bootstrap, ..base },
+            self.item_groups(bootstrap),
+        );
+        self.wait(index)?;
+        let targets: Vec<f32> =
+            self.ctx.read_buffer_range(&state.targets, 0..plan.bootstrap * 4, SUBMIT_TIMEOUT)?;
+        let Some((b, starts)) = chain_starts(&plan, &targets, k, self.settings.seed) else {
+            let state = self.mlt.as_mut().expect("checked above");
+            state.passes += 1;
+            state.passes_without_light += 1;
+            state.pass = Some((k, 0.0));
+            return Ok(());
+        };
+        let chains: Vec<MltChainGpu> = starts
+            .iter()
+            .map(|s| MltChainGpu {
+                start: s.sample as u32,
+                depth: s.depth,
+                remaining: s.mutations as u32,
+                ..Default::default()
+            })
+            .collect();
+        self.ctx.queue.write_buffer(&state.chains, 0, bytemuck::cast_slice(&chains));
+        let items = chains.len() as u32;
+        let groups = self.item_groups(items);
+        // Each chain's first dispatch starts it before its mutations.
+        let mut left = starts.iter().map(|s| s.mutations).max().unwrap_or(0);
+        while left > 0 {
+            let m = self.mlt_mutations_per_dispatch(items).min(left);
+            let submitted = Instant::now();
+            let params = FrameParams { mlt_items: items, mlt_mutations: m as u32, ..base };
+            let index = self.submit_groups(&kernel.render, params, groups);
+            self.wait(index)?;
+            let rate = submitted.elapsed().as_secs_f64() / (items as f64 * m as f64);
+            let state = self.mlt.as_mut().expect("checked above");
+            state.seconds_per_mutation =
+                Some(state.seconds_per_mutation.map_or(rate, |old| 0.5 * old + 0.5 * rate));
+            // Raised at once, lowered by halves, as `seconds_per_sample_bound`.
+            state.seconds_per_mutation_bound = Some(match state.seconds_per_mutation_bound {
+                Some(old) if rate < old => 0.5 * old + 0.5 * rate,
+                _ => rate,
+            });
+            left -= m;
+        }
+        let state = self.mlt.as_mut().expect("checked above");
+        state.passes += 1;
+        state.proposed += plan.mutations;
+        state.pass = Some((k, plan.image_scale(b) as f32));
+        Ok(())
+    }
+
+    /// Mutations per chain in the next `mlt_mutate` dispatch over `chains` chains: one until
+    /// a first is timed, then about [`TARGET_SUBMIT_SECONDS`] of them, and on a software GPU
+    /// no more than a group of lanes runs in [`SOFTWARE_GPU_GROUP_SECONDS`] (each lane a
+    /// chain, its mutations one after another; `software_gpu_sample_cap` explains the
+    /// budget). Timed from its submission, the rate over-states a dispatch's time, which only
+    /// makes the dispatches smaller.
+    fn mlt_mutations_per_dispatch(&self, chains: u32) -> u64 {
+        let state = self.mlt.as_ref().expect("a Metropolis backend has its state");
+        let (Some(rate), Some(bound)) = (state.seconds_per_mutation, state.seconds_per_mutation_bound) else {
+            return 1;
+        };
+        let mut m = (TARGET_SUBMIT_SECONDS / (rate * chains as f64)) as u64;
+        if !self.ctx.is_hardware() {
+            let threads = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+            m = m.min((SOFTWARE_GPU_GROUP_SECONDS / (bound * threads * SOFTWARE_GPU_LANES)) as u64);
+        }
+        m.max(1)
+    }
+
+    /// Queues the resolve of Metropolis's traced pass `k` over rows `rows`.
+    fn submit_mlt_resolve(&self, k: u32, rows: std::ops::Range<u32>) -> wgpu::SubmissionIndex {
+        let resolve = self.kernel.resolve.as_ref().expect("the Metropolis kernel has a resolve pass");
+        let scale =
+            self.mlt.as_ref().and_then(|s| s.pass).filter(|(pass, _)| *pass == k).map_or(0.0, |(_, s)| s);
+        let params = self.frame_params(k, 1, rows.start, rows.end - rows.start);
+        self.submit(resolve, FrameParams { mlt_scale: scale, ..params })
+    }
+
+    /// Metropolis's [`Backend::render`]: pass after pass, each traced, then resolved.
+    fn render_mlt(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
+        for k in sample_offset..sample_offset + samples {
+            self.trace_mlt_pass(k)?;
+            let index = self.submit_mlt_resolve(k, 0..self.settings.height);
+            self.wait(index)?;
+        }
+        Ok(())
+    }
+
+    /// Metropolis's running totals (rays, accepted mutations, dropped samples) with the
+    /// host's counts.
+    fn mlt_totals(&self) -> Result<Option<crate::integrator::mlt::MltStats>> {
+        let Some(state) = &self.mlt else { return Ok(None) };
+        let words = self.ctx.read_buffer_range::<u32>(&state.counters, 0..24, SUBMIT_TIMEOUT)?;
+        let total = |at: usize| words[at] as u64 | (words[at + 1] as u64) << 32;
+        Ok(Some(crate::integrator::mlt::MltStats {
+            passes: state.passes,
+            proposed: state.proposed,
+            accepted: total(2),
+            passes_without_light: state.passes_without_light,
+            rays: total(0),
+            dropped_samples: total(4),
+        }))
     }
 
     /// The grid's running totals: photon rays, stored and dropped records.
@@ -991,7 +1196,7 @@ impl GpuBackend {
             sample_offset,
             samples,
             seed: self.settings.seed,
-            max_depth: self.settings.max_depth.unwrap_or(u32::MAX),
+            max_depth: self.settings.max_depth_bound().unwrap_or(u32::MAX),
             rr_min_depth: self.settings.rr_min_depth,
             light_count: self.light_count,
             row_offset,
@@ -1024,6 +1229,10 @@ impl GpuBackend {
             photon_cell: 0.0,
             photon_global_radius: maps.and_then(|m| m.global_radius).unwrap_or(0.0),
             photon_caustic_photons: maps.map_or(0, |m| m.settings.caustic_photons),
+            mlt_items: 0,
+            mlt_mutations: 0,
+            mlt_large_step: self.settings.mlt.large_step_probability,
+            mlt_scale: 0.0,
         }
     }
 
@@ -1217,6 +1426,9 @@ impl Backend for GpuBackend {
         if self.settings.integrator == Integrator::Sppm {
             return self.render_sppm(sample_offset, samples);
         }
+        if self.settings.integrator == Integrator::Mlt {
+            return self.render_mlt(sample_offset, samples);
+        }
         self.build_photon_maps()?;
         let (w, h) = (self.settings.width, self.settings.height);
         // (submission, pixel-samples of work, time submitted)
@@ -1321,7 +1533,8 @@ impl Backend for GpuBackend {
         let cache_rays =
             self.irradiance_cache.as_ref().map_or(0, |c| c.stats.gather_rays + c.stats.overture_rays);
         let photon_rays = self.sppm_totals()?.map_or(0, |s| s.photon_rays);
-        Ok(self.rays_folded + cache_rays + photon_rays)
+        let mlt_rays = self.mlt_totals()?.map_or(0, |s| s.rays);
+        Ok(self.rays_folded + cache_rays + photon_rays + mlt_rays)
     }
 
     fn sppm_stats(&mut self) -> Option<crate::integrator::sppm::SppmStats> {
@@ -1347,6 +1560,14 @@ impl Backend for GpuBackend {
                 return Ok(());
             }
             let index = self.submit_sppm_pass(sample_index)?;
+            return self.wait(index);
+        }
+        if self.settings.integrator == Integrator::Mlt {
+            // As BDPT's: the whole pass is traced for its first band, each band resolved alone.
+            if self.mlt.as_ref().and_then(|s| s.pass).map(|(pass, _)| pass) != Some(sample_index) {
+                self.trace_mlt_pass(sample_index)?;
+            }
+            let index = self.submit_mlt_resolve(sample_index, rows);
             return self.wait(index);
         }
         if self.settings.integrator == Integrator::Bdpt {
@@ -1379,6 +1600,13 @@ impl Backend for GpuBackend {
             encoder.clear_buffer(&state.grid, 0, Some(SPPM_HEADER_WORDS * 4));
             state.passes = 0;
         }
+        if let Some(state) = self.mlt.as_mut() {
+            encoder.clear_buffer(&state.counters, 0, None);
+            state.pass = None;
+            state.passes = 0;
+            state.passes_without_light = 0;
+            state.proposed = 0;
+        }
         let index = self.ctx.queue.submit([encoder.finish()]);
         self.wait(index)?;
         self.rays_folded = 0;
@@ -1396,6 +1624,11 @@ impl Backend for GpuBackend {
 
     fn irradiance_record_pixels(&mut self) -> Option<Vec<(u32, u32)>> {
         self.irradiance_cache.as_ref().map(|c| c.records().iter().map(|r| r.pixel).collect())
+    }
+
+    fn mlt_stats(&mut self) -> Option<crate::integrator::mlt::MltStats> {
+        // A read-back failure is reported by the next render or read of the film.
+        self.mlt_totals().ok().flatten()
     }
 
     fn bdpt_stats(&mut self) -> Option<BdptStats> {

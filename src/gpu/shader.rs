@@ -49,6 +49,14 @@ const BDPT_WALK: ShaderFile = ("bdpt_walk.wgsl", include_str!("../../shaders/bdp
 /// Bidirectional path tracing's entry points (`render`, `bdpt_resolve`).
 const BDPT_FILES: &[ShaderFile] = &[BDPT_WALK, ("bdpt.wgsl", include_str!("../../shaders/bdpt.wgsl"))];
 
+/// Metropolis light transport's passes (shaders/mlt.wgsl) over bidirectional path
+/// tracing's strategies.
+const MLT_FILES: &[ShaderFile] = &[
+    BDPT_WALK,
+    ("bdpt.wgsl", include_str!("../../shaders/bdpt.wgsl")),
+    ("mlt.wgsl", include_str!("../../shaders/mlt.wgsl")),
+];
+
 /// Stochastic progressive photon mapping's passes (shaders/sppm.wgsl): its camera paths use
 /// the path tracer's next-event estimation (and so its files), its photons the subpath walk.
 const SPPM_FILES: &[ShaderFile] = &[
@@ -76,9 +84,7 @@ pub fn integrator_files(integrator: Integrator) -> &'static [ShaderFile] {
         Integrator::Bdpt => BDPT_FILES,
         Integrator::Sppm => SPPM_FILES,
         Integrator::Photon => PHOTON_FILES,
-        // No kernel yet (`Integrator::has_gpu_kernel`): `GpuContext` refuses it before any
-        // source is composed.
-        Integrator::Mlt => &[],
+        Integrator::Mlt => MLT_FILES,
     }
 }
 

@@ -64,6 +64,15 @@ pub const DEFAULT_MLT_MAX_DEPTH: u32 = 10;
 /// vertices, and a light subpath holds at most `BDPT_MAX_VERTICES` (16).
 pub const MAX_MLT_DEPTH: u32 = super::bdpt::BDPT_MAX_VERTICES as u32 - 1;
 
+/// The most numbers one sample reads from one stream, which the GPU keeps room for per
+/// chain (shaders/sampling.wgsl): at depth [`MAX_MLT_DEPTH`] the camera stream reads 3
+/// (strategy, film point) + 16 alpha seeds (one per trace) + 15 scatterings × 3 (lobe,
+/// direction) = 64, the light stream 7 (the origin) + 15 alpha seeds + 14 × 3 = 64, the
+/// connection stream at most 3 (a light sample and its alpha seed). Neither subpath plays
+/// roulette here. The CPU sampler grows as it is read and never needs the bound; its test
+/// checks reads stay within it.
+pub const MLT_NUMBERS_PER_STREAM: u32 = 64;
+
 /// Chains' default length per pass: chains = mutations / this (at least 1), so that each
 /// chain has room to explore what it found.
 pub const DEFAULT_CHAIN_MUTATIONS: u32 = 1024;
@@ -173,6 +182,9 @@ pub struct MltStats {
     pub passes_without_light: u64,
     /// Rays traced, bootstrap included.
     pub rays: u64,
+    /// Samples the GPU dropped because they read more than [`MLT_NUMBERS_PER_STREAM`]
+    /// numbers from a stream (by its count, none can; the CPU never drops any).
+    pub dropped_samples: u64,
 }
 
 impl MltStats {
@@ -189,6 +201,7 @@ impl std::ops::AddAssign for MltStats {
         self.accepted += o.accepted;
         self.passes_without_light += o.passes_without_light;
         self.rays += o.rays;
+        self.dropped_samples += o.dropped_samples;
     }
 }
 
@@ -399,79 +412,166 @@ impl Chain {
     }
 }
 
+/// A pass's sizes, the same on both backends.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PassPlan {
+    pub pixels: u64,
+    /// Path depths the chains are spread over (0 to the depth bound).
+    pub depths: u32,
+    /// Mutations in the pass, over all its chains.
+    pub mutations: u64,
+    /// Bootstrap samples per depth, and in all (sample i has depth i mod `depths`).
+    pub per_depth: u64,
+    pub bootstrap: u64,
+    pub chains: u64,
+}
+
+impl PassPlan {
+    /// The sizes of a pass of `ctx`.
+    pub fn of(settings: &MltSettings, max_depth: u32, width: u32, height: u32) -> PassPlan {
+        let pixels = width as u64 * height as u64;
+        let depths = max_depth.min(MAX_MLT_DEPTH) + 1;
+        let mutations = settings.mutations_per_pixel as u64 * pixels;
+        let per_depth = settings.bootstrap_per_depth(mutations, depths);
+        PassPlan {
+            pixels,
+            depths,
+            mutations,
+            per_depth,
+            bootstrap: per_depth * depths as u64,
+            chains: settings.chain_count(mutations),
+        }
+    }
+
+    /// Bootstrap sample `i`'s path depth.
+    pub fn depth_of(&self, i: u64) -> u32 {
+        (i % self.depths as u64) as u32
+    }
+
+    /// The factor from a pass's summed splats (each C · weight / T) to its image:
+    /// b · pixels / mutations.
+    pub fn image_scale(&self, b: f64) -> f64 {
+        b * self.pixels as f64 / self.mutations as f64
+    }
+}
+
+/// Where a chain starts: the bootstrap sample it resumes, that sample's depth, and the
+/// mutations it makes in the pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChainStart {
+    pub sample: u64,
+    pub depth: u32,
+    pub mutations: u64,
+}
+
+/// The pass's normalisation b = Σ_depth ∫ T and its chains' starts, drawn in proportion to
+/// the bootstrap's targets `weights` (chain c draws from its own stream); `None` where the
+/// bootstrap found no light. Both backends call this on their bootstrap's weights, so
+/// their chains start alike.
+pub fn chain_starts(
+    plan: &PassPlan,
+    weights: &[f32],
+    pass: u32,
+    seed: u32,
+) -> Option<(f64, Vec<ChainStart>)> {
+    let mut cdf = Vec::with_capacity(weights.len());
+    let mut total = 0.0f64;
+    for w in weights {
+        total += *w as f64;
+        cdf.push(total);
+    }
+    if total <= 0.0 {
+        return None;
+    }
+    // b = Σ_depth ∫ T: each depth's mean T, summed.
+    let b = total / plan.per_depth as f64;
+    let chains = plan.chains;
+    let starts = (0..chains)
+        .map(|c| {
+            let mut rng = Rng::new(c as u32, MLT_CHAIN_STREAM, pass, seed);
+            let u = rng.next_1d() as f64 * total;
+            let sample = (cdf.partition_point(|&x| x <= u) as u64).min(plan.bootstrap - 1);
+            let mutations = plan.mutations / chains + u64::from(c < plan.mutations % chains);
+            ChainStart { sample, depth: plan.depth_of(sample), mutations }
+        })
+        .collect();
+    Some((b, starts))
+}
+
+/// Bootstrap sample `i`'s sampler: an independent sample drawn from its own stream.
+pub(crate) fn bootstrap_sampler(i: u64, pass: u32, seed: u32, large_step_probability: f32) -> MltSampler {
+    MltSampler::new(Rng::new(i as u32, MLT_BOOTSTRAP_STREAM, pass, seed), large_step_probability)
+}
+
 /// Pass `pass`: an independent Metropolis estimate of the whole image (row-major, the
 /// film's layout), and what it counted.
 pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
     let resolution = (ctx.width, ctx.height);
-    let pixels = ctx.width as usize * ctx.height as usize;
-    let depths = ctx.integrator.max_depth.min(MAX_MLT_DEPTH) + 1;
-    let mutations = ctx.settings.mutations_per_pixel as u64 * pixels as u64;
-    let per_depth = ctx.settings.bootstrap_per_depth(mutations, depths);
-    let bootstrap = per_depth * depths as u64;
+    let plan = PassPlan::of(&ctx.settings, ctx.integrator.max_depth, ctx.width, ctx.height);
+    let pixels = plan.pixels as usize;
     let bdpt = BdptContext::new(ctx.scene, ctx.camera, ctx.integrator, ctx.width, ctx.height);
     let p_large = ctx.settings.large_step_probability;
-    let sampler_for =
-        |i: u64| MltSampler::new(Rng::new(i as u32, MLT_BOOTSTRAP_STREAM, pass, ctx.seed), p_large);
-    let depth_of = |i: u64| (i % depths as u64) as u32;
+    let sampler_for = |i: u64| bootstrap_sampler(i, pass, ctx.seed, p_large);
     let mut stats = MltStats { passes: 1, ..MltStats::default() };
 
     // The bootstrap: T of independent samples, every depth alike.
     const BOOTSTRAP_CHUNK: u64 = 256;
-    let chunks: Vec<(Vec<f32>, u64)> = (0..bootstrap.div_ceil(BOOTSTRAP_CHUNK))
+    let chunks: Vec<(Vec<f32>, u64)> = (0..plan.bootstrap.div_ceil(BOOTSTRAP_CHUNK))
         .into_par_iter()
         .map(|c| {
             let mut paths = Subpaths::new();
             let mut rays = 0;
-            let range = c * BOOTSTRAP_CHUNK..((c + 1) * BOOTSTRAP_CHUNK).min(bootstrap);
+            let range = c * BOOTSTRAP_CHUNK..((c + 1) * BOOTSTRAP_CHUNK).min(plan.bootstrap);
             let weights = range
                 .map(|i| {
                     let mut sampler = sampler_for(i);
-                    let sample =
-                        strategy_sample(&bdpt, &mut sampler, depth_of(i), resolution, &mut paths, &mut rays);
+                    let sample = strategy_sample(
+                        &bdpt,
+                        &mut sampler,
+                        plan.depth_of(i),
+                        resolution,
+                        &mut paths,
+                        &mut rays,
+                    );
                     State::of(sample).target
                 })
                 .collect();
             (weights, rays)
         })
         .collect();
-    let mut cdf = Vec::with_capacity(bootstrap as usize);
-    let mut total = 0.0f64;
-    for (weights, rays) in &chunks {
-        stats.rays += rays;
-        for w in weights {
-            total += *w as f64;
-            cdf.push(total);
-        }
-    }
-    if total <= 0.0 {
+    stats.rays += chunks.iter().map(|(_, rays)| rays).sum::<u64>();
+    let weights: Vec<f32> = chunks.into_iter().flat_map(|(w, _)| w).collect();
+    let Some((b, starts)) = chain_starts(&plan, &weights, pass, ctx.seed) else {
         stats.passes_without_light = 1;
         return (vec![Vec3::ZERO; pixels], stats);
-    }
-    // b = Σ_depth ∫ T: each depth's mean T, summed.
-    let b = total / per_depth as f64;
+    };
 
-    let chains = ctx.settings.chain_count(mutations);
-    let (mut states, start_rays): (Vec<Chain>, Vec<u64>) = (0..chains)
+    let (mut states, start_rays): (Vec<Chain>, Vec<u64>) = starts
         .into_par_iter()
-        .map(|c| {
+        .enumerate()
+        .map(|(c, start)| {
             let mut rng = Rng::new(c as u32, MLT_CHAIN_STREAM, pass, ctx.seed);
-            // A start drawn in proportion to T.
-            let u = rng.next_1d() as f64 * total;
-            let start = (cdf.partition_point(|&x| x <= u) as u64).min(bootstrap - 1);
-            let depth = depth_of(start);
-            let mut sampler = sampler_for(start);
+            // The draw `chain_starts` made of the start.
+            rng.next_1d();
+            let mut sampler = sampler_for(start.sample);
             let mut rays = 0;
-            let sample =
-                strategy_sample(&bdpt, &mut sampler, depth, resolution, &mut Subpaths::new(), &mut rays);
-            let remaining = mutations / chains + u64::from(c < mutations % chains);
-            (Chain { sampler, rng, current: State::of(sample), depth, remaining }, rays)
+            let sample = strategy_sample(
+                &bdpt,
+                &mut sampler,
+                start.depth,
+                resolution,
+                &mut Subpaths::new(),
+                &mut rays,
+            );
+            let current = State::of(sample);
+            (Chain { sampler, rng, current, depth: start.depth, remaining: start.mutations }, rays)
         })
         .unzip();
     stats.rays += start_rays.iter().sum::<u64>();
     // The chains run in rounds of at most `per_round` mutations each, their splats summed
     // in chain order after each round: memory stays bounded (about 2 splats of 16 bytes per
     // mutation of a round) and the sum's order depends on the settings alone.
-    let per_round = (ROUND_SPLATS / (2 * chains)).max(1);
+    let per_round = (ROUND_SPLATS / (2 * plan.chains)).max(1);
     let mut image = vec![[0.0f64; 3]; pixels];
     while states.iter().any(|c| c.remaining > 0) {
         let results: Vec<(Vec<(u32, Vec3)>, MltStats)> = states
@@ -488,7 +588,7 @@ pub fn mlt_pass(ctx: &MltContext, pass: u32) -> (Vec<Vec3>, MltStats) {
             }
         }
     }
-    let scale = b * pixels as f64 / mutations as f64;
+    let scale = plan.image_scale(b);
     let image = image.iter().map(|s| Vec3::from(s.map(|v| (v * scale) as f32))).collect();
     (image, stats)
 }
@@ -532,6 +632,37 @@ mod tests {
                 assert_eq!(values, state);
             }
         }
+    }
+
+    /// No sample reads more than [`MLT_NUMBERS_PER_STREAM`] numbers from one stream (the
+    /// room the GPU keeps per chain): 20,000 samples of the deepest paths Metropolis renders,
+    /// every strategy, in the closed lamp room, which keeps most paths going to the end.
+    /// Its walls are opaque Lambertian and untextured, so each scattering reads 3 numbers
+    /// and each trace none: the camera stream's longest is 3 + 15 × 3 = 48, the light
+    /// stream's 7 + 14 × 3 = 49, which the test must reach to mean anything; alpha seeds add
+    /// one per trace up to the bound of 64.
+    #[test]
+    fn samples_read_within_the_gpu_bound() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/lamp-shade-room.gltf");
+        let (scene, _) = crate::scene::load(&path).unwrap();
+        let view = crate::scene::ViewSettings { camera: None, aspect: 1.0 };
+        let flat = FlatScene::build(&scene, &view).unwrap();
+        let settings = IntegratorSettings { max_depth: MAX_MLT_DEPTH, ..IntegratorSettings::default() };
+        let bdpt = BdptContext::new(&flat, &flat.camera, &settings, 16, 16);
+        let mut longest = [0usize; 3];
+        for i in 0..20_000 {
+            let mut sampler = bootstrap_sampler(i, 0, 1, 0.3);
+            strategy_sample(&bdpt, &mut sampler, MAX_MLT_DEPTH, (16, 16), &mut Subpaths::new(), &mut 0);
+            for (stream, most) in longest.iter_mut().enumerate() {
+                let read = (0..sampler.samples.len())
+                    .filter(|j| j % 3 == stream)
+                    .filter(|j| sampler.samples[*j].set)
+                    .count();
+                *most = (*most).max(read);
+            }
+        }
+        assert!(longest.iter().all(|&n| n <= MLT_NUMBERS_PER_STREAM as usize), "{longest:?}");
+        assert_eq!(longest[..2], [48, 49], "the deepest paths were not all reached");
     }
 
     /// Small steps move each number by a normal of deviation σ (wrapped): their spread

@@ -94,8 +94,9 @@ impl Integrator {
     /// it and `--backend auto` renders it on the CPU.
     pub fn has_gpu_kernel(self) -> bool {
         match self {
-            Integrator::Path | Integrator::Bdpt | Integrator::Sppm | Integrator::Photon => true,
-            Integrator::Mlt => false,
+            Integrator::Path | Integrator::Bdpt | Integrator::Sppm | Integrator::Photon | Integrator::Mlt => {
+                true
+            }
         }
     }
 

@@ -343,7 +343,7 @@ pub const PROJECTION_PERSPECTIVE: u32 = 0;
 pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
 
 gpu_struct! {
-    /// What one dispatch computes, 144 bytes.
+    /// What one dispatch computes, 160 bytes.
     pub struct FrameParams {
         pub width: u32,
         pub height: u32,
@@ -418,6 +418,13 @@ gpu_struct! {
         /// traced for the caustic map (`sppm_photons` holds the global map's).
         pub photon_global_radius: f32,
         pub photon_caustic_photons: u32,
+        /// Metropolis (shaders/mlt.wgsl): the dispatch's items (bootstrap samples, or
+        /// chains), the mutations each chain makes in it, the probability of a large step,
+        /// and the factor from the pass's summed splats to its image (`PassPlan::image_scale`).
+        pub mlt_items: u32,
+        pub mlt_mutations: u32,
+        pub mlt_large_step: f32,
+        pub mlt_scale: f32,
     }
 }
 
@@ -468,6 +475,42 @@ gpu_struct! {
         pub position_wi_x: [f32; 4],
         pub wi_yz_beta_rg: [f32; 4],
         pub beta_b_normal: [f32; 4],
+    }
+}
+
+gpu_struct! {
+    /// One number of a Metropolis chain's primary sample on the GPU (`integrator::mlt::
+    /// PrimarySample`): its value and the iteration that set it, and what a rejected
+    /// mutation restores; the top bit of each iteration word is the `set` flag. 16 bytes.
+    pub struct MltNumberGpu {
+        pub value: f32,
+        pub backup_value: f32,
+        pub modified: u32,
+        pub backup_modified: u32,
+    }
+}
+
+gpu_struct! {
+    /// A Metropolis chain between dispatches (`integrator::mlt::Chain`; its numbers are
+    /// `MltNumberGpu`s of their own): the sampler's and the chain's xoshiro128** states, the
+    /// current state's contribution C, target T and pixel, the chain's depth, the sampler's
+    /// iteration and last accepted large step, the bootstrap sample it starts from, the
+    /// mutations it has still to make in the pass, how many of its numbers were read, and
+    /// whether it has started. 80 bytes.
+    pub struct MltChainGpu {
+        pub sampler_rng: [u32; 4],
+        pub chain_rng: [u32; 4],
+        pub value: [f32; 3],
+        pub scalar_target: f32,
+        pub pixel: u32,
+        pub depth: u32,
+        pub iteration: u32,
+        pub last_large_step: u32,
+        pub start: u32,
+        pub remaining: u32,
+        pub used: u32,
+        /// 0 until the chain's first state is made (`mlt_start`).
+        pub started: u32,
     }
 }
 
@@ -615,6 +658,8 @@ pub fn all_layouts() -> Vec<StructLayout> {
         entry::<SppmPixelGpu>(),
         entry::<SppmVisiblePoint>(),
         entry::<SppmPhoton>(),
+        entry::<MltNumberGpu>(),
+        entry::<MltChainGpu>(),
         entry::<FilmPixel>(),
         entry::<FirstHit>(),
         entry::<PixelAov>(),

@@ -6,6 +6,7 @@ mod bdpt;
 #[path = "../common/mod.rs"]
 mod common;
 mod kernel_variants;
+mod mlt;
 mod sppm;
 mod textures;
 
