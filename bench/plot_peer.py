@@ -3,8 +3,8 @@
 
     python3 bench/plot_peer.py OUT SCENE...
 
-reads OUT/<scene>/{pathlight-cpu,pathlight-cpu-independent,pathlight-cpu-bdpt,pathlight-gpu,mitsuba,
-mitsuba-ldsampler,pbrt-bdpt}.csv (those present) and writes OUT/peer.svg (one
+reads OUT/<scene>/{pathlight-cpu,pathlight-cpu-independent,pathlight-cpu-{bdpt,mlt,sppm},pathlight-gpu,mitsuba,
+mitsuba-ldsampler,pbrt-{bdpt,mlt,sppm}}.csv (those present) and writes OUT/peer.svg (one
 panel per scene). An unbiased renderer's relMSE falls as 1/t: a line of slope -1, shown
 dotted through each series' last point; a series below another at equal time is ahead.
 """
@@ -22,10 +22,14 @@ SERIES = [
     ("pathlight-cpu.csv", "pathlight CPU backend", "tab:blue", "o-"),
     ("pathlight-cpu-independent.csv", "pathlight CPU backend, independent sampler", "tab:blue", "x:"),
     ("pathlight-cpu-bdpt.csv", "pathlight CPU backend, bdpt", "tab:purple", "o-"),
+    ("pathlight-cpu-mlt.csv", "pathlight CPU backend, mlt", "tab:brown", "o-"),
+    ("pathlight-cpu-sppm.csv", "pathlight CPU backend, sppm", "tab:cyan", "o-"),
     ("pathlight-gpu.csv", "pathlight GPU backend (this machine)", "tab:orange", "o-"),
     ("mitsuba.csv", "Mitsuba 3", "tab:green", "o-"),
     ("mitsuba-ldsampler.csv", "Mitsuba 3, ldsampler", "tab:green", "x:"),
     ("pbrt-bdpt.csv", "pbrt-v4 bdpt (against its own converged image)", "tab:red", "o-"),
+    ("pbrt-mlt.csv", "pbrt-v4 mlt (against its own converged image)", "tab:red", "x--"),
+    ("pbrt-sppm.csv", "pbrt-v4 sppm (against its own converged image)", "tab:pink", "x--"),
     # Measured on another machine (`--pathlight-only`), drawn for scale, not compared.
     ("pathlight-h100.csv", "pathlight GPU backend, H100 (other machine)", "tab:gray", "s--"),
 ]
