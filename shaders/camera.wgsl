@@ -59,3 +59,16 @@ fn band_pixel(gid: vec3<u32>) -> vec3<u32> {
     let inside = gid.x < frame.width && gid.y < frame.row_count && y < frame.height;
     return vec3<u32>(gid.x, y, select(0u, 1u, inside));
 }
+
+// Item `i` of a dispatch over `items` items for `gid` (photons, Metropolis's samples and
+// chains, irradiance-cache gather rays): rows of `frame.width` items in workgroups of 8
+// rows, the rows past 65,535 workgroups in y going on in z layers (the host's
+// `GpuBackend::item_groups`); INVALID_INDEX past `items`.
+fn dispatch_item(gid: vec3<u32>, groups: vec3<u32>, items: u32) -> u32 {
+    if (gid.x >= frame.width) {
+        return INVALID_INDEX;
+    }
+    let row = gid.y + gid.z * groups.y * 8u;
+    let i = row * frame.width + gid.x;
+    return select(INVALID_INDEX, i, i < items);
+}

@@ -162,6 +162,10 @@ struct FrameParams {
     mlt_mutations: u32,
     mlt_large_step: f32,
     mlt_scale: f32,
+    ic_gather_jobs: u32,
+    ic_gather_job_offset: u32,
+    ic_gather_round: u32,
+    ic_gather_polar_strata: u32,
 }
 
 // Twin of `SppmPixelGpu` (src/scene/layout.rs).
@@ -234,6 +238,32 @@ struct IrradianceCell {
     count: u32,
     _pad0: u32,
     _pad1: u32,
+}
+
+struct IcVertexGpu {
+    origin: vec3<f32>,
+    triangle: u32,
+    direction: vec3<f32>,
+    t: f32,
+    b: vec3<f32>,
+    cone_width: f32,
+    p: vec3<f32>,
+    footprint: f32,
+    frame_x: vec3<f32>,
+    rays: u32,
+    frame_y: vec3<f32>,
+    _pad0: u32,
+    frame_z: vec3<f32>,
+    _pad1: u32,
+}
+
+struct IcGatherResultGpu {
+    radiance: vec3<f32>,
+    distance: f32,
+    rays: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct FilmPixel {

@@ -172,16 +172,9 @@ fn mlt_target(sample: MltSample) -> f32 {
     return max(mlt_luminance(sample.value), 0.0);
 }
 
-// This dispatch's item (bootstrap sample or chain) for `gid`: rows of `frame.width` items
-// in workgroups of 8 rows, the rows past 65,535 workgroups in z layers (the host's
-// `GpuBackend::item_groups`); INVALID_INDEX past `frame.mlt_items`.
+// This dispatch's item (bootstrap sample or chain) for `gid` (`dispatch_item`).
 fn mlt_item(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    if (gid.x >= frame.width) {
-        return INVALID_INDEX;
-    }
-    let row = gid.y + gid.z * groups.y * 8u;
-    let i = row * frame.width + gid.x;
-    return select(INVALID_INDEX, i, i < frame.mlt_items);
+    return dispatch_item(gid, groups, frame.mlt_items);
 }
 
 fn mlt_depths() -> u32 {

@@ -60,30 +60,64 @@ struct SplitVertex {
 // samples still end, and reach the film, in index order, so the image is bit for bit the one
 // the nested loops gave. A split sample's continuations are regenerated the same way: each
 // starts from the saved vertex when the one before it ends.
+//
+// Gather mode (irradiance-cache placement, `frame.ic_gather_jobs` > 0, only in the kernel
+// built with IRRADIANCE_CACHE): each invocation traces one gather ray of a record
+// (`ic_gather_start` in shaders/irradiance_cache.wgsl) as the same bounce loop, and writes
+// its radiance, its first hit's distance and its rays to `ic_gather_results` instead of the
+// film (twin of `indirect_radiance`).
 @compute @workgroup_size(8, 8, 1)
-fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn render(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     load_dispatch_constants();
-    let px = band_pixel(gid);
-    if (px.z == 0u || frame.samples == 0u) {
-        return;
-    }
-    let x = px.x;
-    let y = px.y;
-    let pixel = y * frame.width + x;
-    // Adaptive sampling: the samples of this dispatch below the pixel's budget.
-    let budget = sample_budget(pixel);
-    if (budget <= frame.sample_offset) {
-        return;
-    }
-    let samples = min(frame.samples, budget - frame.sample_offset);
-    var p = film[pixel];
-    rays_traced = 0u;
-    let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
-    // The path of sample `sample_offset + k`, started at the top of the loop whenever
-    // `start_path` is set (WGSL zero-initialises the rest until then).
+    let gather = IRRADIANCE_CACHE && frame.ic_gather_jobs != 0u;
+    var x = 0u;
+    var y = 0u;
+    var pixel = 0u;
+    var samples = 1u;
+    var job = 0u;
+    var cone = vec2<f32>(frame.cone_width, frame.cone_spread);
+    // Gather mode: the first hit's distance (negative: none) of the gather ray.
+    var gather_distance = -1.0;
+    var p: FilmPixel;
     var k = 0u;
     var start_path = true;
     var path: PathState;
+    rays_traced = 0u;
+    if (gather) {
+        let item = dispatch_item(gid, groups, frame.ic_gather_jobs);
+        if (item == INVALID_INDEX) {
+            return;
+        }
+        job = frame.ic_gather_job_offset + item;
+        let start = ic_gather_start(job);
+        if (!start.traced) {
+            ic_gather_results[job] = IcGatherResultGpu(vec3<f32>(0.0), -1.0, 0u, 0u, 0u, 0u);
+            return;
+        }
+        // `indirect_radiance`'s path: past the record's vertex (depth 1), its first hit
+        // weighing a sampled light's emission by the weight of a strategy with no density, 0,
+        // and the cache already consulted.
+        path = PathState(start.ray, 0.0, vec3<f32>(1.0), 1u, false, 0.0, 1.0, 1u, true, vec3<f32>(0.0), true);
+        cone = vec2<f32>(start.cone_width, 0.0);
+        start_path = false;
+    } else {
+        let px = band_pixel(gid);
+        if (px.z == 0u || frame.samples == 0u) {
+            return;
+        }
+        x = px.x;
+        y = px.y;
+        pixel = y * frame.width + x;
+        // Adaptive sampling: the samples of this dispatch below the pixel's budget.
+        let budget = sample_budget(pixel);
+        if (budget <= frame.sample_offset) {
+            return;
+        }
+        samples = min(frame.samples, budget - frame.sample_offset);
+        p = film[pixel];
+    }
+    // The path of sample `sample_offset + k`, started at the top of the loop whenever
+    // `start_path` is set (WGSL zero-initialises the rest until then).
     // The radiance of the path (of the current continuation once the sample has split).
     var l: vec3<f32>;
     var poisoned: bool;
@@ -124,6 +158,9 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                     alpha_seed = rng_next_u32();
                 }
                 hit = intersect_closest(path.ray, alpha_seed);
+                if (gather && path.depth == 1u && hit.triangle != INVALID_INDEX) {
+                    gather_distance = hit.t;
+                }
                 if (hit.triangle == INVALID_INDEX) {
                     if (FEATURE_ENVIRONMENT && environment.present != 0u) {
                         let env = environment_lookup(path.ray.direction);
@@ -267,14 +304,20 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>) {
                     l = split_vertex.l_prefix + split_sum / f32(frame.splits);
                 }
             }
+            if (gather) {
+                // A poisoned gather ray counts as no light (`compute_record`).
+                let radiance = select(l, vec3<f32>(0.0), poisoned || !is_finite_vec3(l));
+                ic_gather_results[job] = IcGatherResultGpu(radiance, gather_distance, rays_traced, 0u, 0u, 0u);
+                return;
+            }
             if (sample_ended) {
                 // A poisoned path poisons its sample, split or not (the CPU twin returns at once).
-                var x = select(l, poison(), poisoned);
+                var value = select(l, poison(), poisoned);
                 if (frame.light_traced_caustics != 0u) {
                     // The light tracer's half of the pixel for this sample index.
-                    x += caustic_radiance(pixel);
+                    value += caustic_radiance(pixel);
                 }
-                p = film_add_sample(p, x, replicate_of(frame.sample_offset + k));
+                p = film_add_sample(p, value, replicate_of(frame.sample_offset + k));
                 k += 1u;
                 if (k == samples) {
                     break;
@@ -296,38 +339,3 @@ fn direct_throughput(path: PathState) -> vec3<f32> {
     }
     return path.beta;
 }
-
-// Twin of `next_event`: one light sample at `si`, MIS-weighted against the BSDF's
-// sampling, times the throughput `beta`.
-fn next_event(si: SurfaceInteraction, bsdf: GltfBsdf, beta: vec3<f32>) -> vec3<f32> {
-    if (!has_non_delta(bsdf) || frame.light_count == 0u) {
-        return vec3<f32>(0.0);
-    }
-    let u_light = rng_next_2d();
-    let ls = sample_light(si.p, si.p_error, si.n_geometric, u_light);
-    if (!ls.valid) {
-        return vec3<f32>(0.0);
-    }
-    let wi = frame_to_local(si.frame, ls.wi);
-    var f = vec3<f32>(0.0);
-    if (sides_agree(si, ls.wi, wi)) {
-        f = gltf_bsdf_eval(bsdf, si.wo, wi);
-    }
-    if (max_element(f) <= 0.0) {
-        return vec3<f32>(0.0);
-    }
-    var shadow_seed = 0u;
-    if (FEATURE_ALPHA) {
-        shadow_seed = rng_next_u32();
-    }
-    if (intersect_any(ls.shadow_ray, shadow_seed)) {
-        return vec3<f32>(0.0);
-    }
-    let contribution = beta * f * abs(wi.z) * ls.radiance;
-    if (ls.is_delta) {
-        return contribution / ls.pdf;
-    }
-    let w = power_heuristic(ls.pdf, gltf_bsdf_pdf(bsdf, si.wo, wi));
-    return contribution * w / ls.pdf;
-}
-

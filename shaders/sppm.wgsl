@@ -305,19 +305,14 @@ fn sppm_visible(@builtin(global_invocation_id) gid: vec3<u32>) {
     ray_counts[pixel] += rays_traced;
 }
 
-// Step 2: photon i = row · width + gid.x of the pass, for i below `frame.sppm_photons`
-// (twin of `trace_photons`), into the map `frame.photon_grid_base` and
-// `frame.photon_record_base` name, keeping the landings `frame.photon_kind` says. Rows past
-// a dispatch's 65,535 workgroups in y go on in its z layers.
+// Step 2: photon i of the pass (`dispatch_item`), for i below `frame.sppm_photons` (twin of
+// `trace_photons`), into the map `frame.photon_grid_base` and `frame.photon_record_base`
+// name, keeping the landings `frame.photon_kind` says.
 @compute @workgroup_size(8, 8, 1)
 fn sppm_trace_photons(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     load_dispatch_constants();
-    if (gid.x >= frame.width) {
-        return;
-    }
-    let row = gid.y + gid.z * groups.y * 8u;
-    let i = row * frame.width + gid.x;
-    if (i >= frame.sppm_photons) {
+    let i = dispatch_item(gid, groups, frame.sppm_photons);
+    if (i == INVALID_INDEX) {
         return;
     }
     rays_traced = 0u;

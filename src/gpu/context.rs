@@ -119,6 +119,9 @@ pub struct Kernel {
     pub render: wgpu::ComputePipeline,
     /// Built on first use ([`GpuContext::first_hit_kernel`]).
     pub first_hit: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The irradiance cache's first-vertex pass (`ic_first_vertex`), built on first use
+    /// ([`GpuContext::ic_first_vertex_kernel`]).
+    pub ic_first_vertex: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// The second pass that adds a traced pass to the film: bidirectional path tracing's
     /// (`bdpt_resolve` in shaders/bdpt.wgsl: the pass and its splats), SPPM's (`sppm_gather`
     /// in shaders/sppm.wgsl: the visible points' gathers), Metropolis's (`mlt_resolve`: the
@@ -153,12 +156,17 @@ const SPPM_BINDINGS: u32 = 5;
 /// Metropolis's own bindings, after those: 27 to 30 (shaders/mlt.wgsl).
 const MLT_BINDINGS: u32 = 4;
 
+/// The path tracer's own, after those: 27 to 29, the irradiance cache's placement passes
+/// (shaders/irradiance_cache.wgsl).
+const IC_PLACEMENT_BINDINGS: u32 = 3;
+
 /// The bindings of `integrator`'s kernel.
 pub(crate) fn kernel_bindings(integrator: Integrator) -> u32 {
     match integrator {
         Integrator::Sppm | Integrator::Photon => KERNEL_BINDINGS + SPPM_BINDINGS,
         Integrator::Mlt => KERNEL_BINDINGS + MLT_BINDINGS,
-        Integrator::Path | Integrator::Bdpt => KERNEL_BINDINGS,
+        Integrator::Path => KERNEL_BINDINGS + IC_PLACEMENT_BINDINGS,
+        Integrator::Bdpt => KERNEL_BINDINGS,
     }
 }
 
@@ -424,7 +432,17 @@ impl GpuContext {
             Integrator::Path | Integrator::Bdpt | Integrator::Mlt => None,
         };
         let first_hit = std::sync::OnceLock::new();
-        let kernel = Arc::new(Kernel { key, render, first_hit, resolve, photon_maps, build_seconds, source });
+        let ic_first_vertex = std::sync::OnceLock::new();
+        let kernel = Arc::new(Kernel {
+            key,
+            render,
+            first_hit,
+            ic_first_vertex,
+            resolve,
+            photon_maps,
+            build_seconds,
+            source,
+        });
         cache.insert(key, kernel.clone());
         Ok(kernel)
     }
@@ -441,6 +459,19 @@ impl GpuContext {
         // Two threads may both build it; the first to finish is kept.
         let _ = kernel.first_hit.set(pipeline);
         Ok(kernel.first_hit.get().expect("set above"))
+    }
+
+    /// `kernel`'s irradiance-cache first-vertex pass (`ic_first_vertex` in
+    /// shaders/irradiance_cache.wgsl; the path tracer's kernels only), built on first use:
+    /// only a render with a cache runs it.
+    pub fn ic_first_vertex_kernel<'k>(&self, kernel: &'k Kernel) -> Result<&'k wgpu::ComputePipeline> {
+        if let Some(pipeline) = kernel.ic_first_vertex.get() {
+            return Ok(pipeline);
+        }
+        let (pipeline, _) =
+            self.build_pipeline(&kernel.source, "ic_first_vertex", &kernel_constants(kernel.key))?;
+        let _ = kernel.ic_first_vertex.set(pipeline);
+        Ok(kernel.ic_first_vertex.get().expect("set above"))
     }
 
     /// The light tracer's kernel (`trace_caustics` in shaders/light_tracing.wgsl)

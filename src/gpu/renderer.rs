@@ -51,13 +51,14 @@ pub struct GpuBackend {
     ctx: Arc<GpuContext>,
     kernel: Arc<Kernel>,
     bind_group: wgpu::BindGroup,
-    /// The buffers of `bind_group`, binding i the i-th: the irradiance cache's (24 to 26)
-    /// are replaced when a cache is placed, and the group made again.
+    /// The buffers of `bind_group`, binding i the i-th: the irradiance cache's (24 to 26, and
+    /// its placement passes' 27 to 29) are replaced when a cache is placed, and the group made
+    /// again.
     bind_buffers: Vec<wgpu::Buffer>,
     /// `FrameParams`' irradiance-cache fields: normal scale, gradients, table mask.
     ic_frame: (f32, u32, u32),
     /// The scene, kept where the settings ask for an irradiance cache: its records are
-    /// placed on the host, again for each camera.
+    /// placed again for each camera (`IrradianceCache::build_on_device` reads its bounds).
     ic_scene: Option<crate::scene::FlatScene>,
     /// The irradiance cache placed for the current camera (its statistics and records).
     irradiance_cache: Option<crate::integrator::irradiance_cache::IrradianceCache>,
@@ -591,6 +592,16 @@ impl GpuBackend {
             bind_buffers
                 .extend([&state.chains, &state.numbers, &state.targets, &state.counters].map(|b| b.clone()));
         }
+        if settings.integrator == Integrator::Path {
+            // The irradiance cache's placement passes (27 to 29): one unused element each until
+            // a cache is placed (`ensure_irradiance_cache` binds its own).
+            use crate::scene::layout::{IcGatherResultGpu, IcVertexGpu};
+            bind_buffers.extend([
+                zeroed("irradiance vertices", std::mem::size_of::<IcVertexGpu>() as u64)?,
+                zeroed("irradiance gather pixels", 4)?,
+                zeroed("irradiance gather results", std::mem::size_of::<IcGatherResultGpu>() as u64)?,
+            ]);
+        }
         let bind_group = Self::make_bind_group(device, &kernel, &bind_buffers);
         ctx.check()?;
         Ok(GpuBackend {
@@ -647,28 +658,37 @@ impl GpuBackend {
         })
     }
 
-    /// The irradiance cache for the current camera, placed on the host as the CPU backend
-    /// places it (the same records for a seed) and bound, if the settings ask for one and it
-    /// is not yet.
+    /// The irradiance cache for the current camera, placed by the device's passes
+    /// (`IrradianceCache::build_on_device`: the same records for a seed as the CPU backend's,
+    /// up to rounding) and bound, if the settings ask for one and it is not yet.
     fn ensure_irradiance_cache(&mut self) -> Result<()> {
-        let (Some(settings), Some(scene)) = (self.settings.irradiance_cache, self.ic_scene.as_ref()) else {
+        let Some(settings) = self.settings.irradiance_cache else {
             return Ok(());
         };
         if self.irradiance_cache.is_some() {
             return Ok(());
         }
-        let s = &self.settings;
-        let integrator = crate::integrator::irradiance_cache::gather_settings(s);
+        let Some(scene) = self.ic_scene.take() else {
+            return Ok(());
+        };
+        let s = self.settings.clone();
+        let camera = self.camera;
+        let integrator = crate::integrator::irradiance_cache::gather_settings(&s);
         let ctx = crate::integrator::irradiance_cache::IrradianceCacheContext {
-            scene,
-            camera: &self.camera,
+            scene: &scene,
+            camera: &camera,
             integrator: &integrator,
             settings,
             width: s.width,
             height: s.height,
             seed: s.seed,
         };
-        let cache = crate::integrator::irradiance_cache::IrradianceCache::build(&ctx);
+        let built = crate::integrator::irradiance_cache::IrradianceCache::build_on_device(
+            &ctx,
+            &mut IcPlacement { backend: self, capacity: (0, 0) },
+        );
+        self.ic_scene = Some(scene);
+        let cache = built?;
         let tables = cache.gpu_tables();
         let device = &self.ctx.device;
         let upload = |what: &str, bytes: &[u8]| {
@@ -1233,6 +1253,13 @@ impl GpuBackend {
             mlt_mutations: 0,
             mlt_large_step: self.settings.mlt.large_step_probability,
             mlt_scale: 0.0,
+            ic_gather_jobs: 0,
+            ic_gather_job_offset: 0,
+            ic_gather_round: 0,
+            ic_gather_polar_strata: self
+                .settings
+                .irradiance_cache
+                .map_or(0, |c| crate::integrator::irradiance_cache::gather_strata(c.gather_rays).0),
         }
     }
 
@@ -1678,5 +1705,144 @@ impl Backend for GpuBackend {
         // Records are placed where this camera's paths land.
         self.irradiance_cache = None;
         Ok(())
+    }
+}
+
+/// The irradiance cache's placement passes on the device ([`IrradianceCache::build_on_device`]
+/// runs the overture on the host around them).
+///
+/// [`IrradianceCache::build_on_device`]: crate::integrator::irradiance_cache::IrradianceCache::build_on_device
+struct IcPlacement<'a> {
+    backend: &'a mut GpuBackend,
+    /// Elements the bound gather-pixel and gather-result buffers hold.
+    capacity: (u64, u64),
+}
+
+/// Gather rays per dispatch: on lavapipe a few seconds of paths, on a GPU a small fraction
+/// of a second (one path each, a few bounces).
+const IC_GATHER_JOBS_PER_DISPATCH: u32 = 1 << 18;
+
+impl IcPlacement<'_> {
+    /// Binds `buffer` at `binding` (27 to 29) and makes the bind group again.
+    fn bind(&mut self, binding: usize, buffer: wgpu::Buffer) {
+        let b = &mut *self.backend;
+        b.bind_buffers[binding] = buffer;
+        b.bind_group = GpuBackend::make_bind_group(&b.ctx.device, &b.kernel, &b.bind_buffers);
+    }
+
+    /// A storage buffer of `bytes` for `binding`, checked against the device's limits.
+    fn buffer(&self, what: &str, bytes: u64) -> Result<wgpu::Buffer> {
+        let ctx = &self.backend.ctx;
+        if bytes > ctx.limits.max_storage_buffer_binding_size || bytes > ctx.limits.max_buffer_size {
+            return Err(Error::Gpu(format!(
+                "the irradiance cache's {what} need {bytes} bytes, more than this device binds; \
+                 lower --ic-rays or the image size"
+            )));
+        }
+        Ok(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(what),
+            size: bytes.max(4),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }))
+    }
+}
+
+impl crate::integrator::irradiance_cache::GatherDevice for IcPlacement<'_> {
+    fn first_vertices(&mut self) -> Result<Vec<crate::integrator::irradiance_cache::DeviceFirstVertex>> {
+        use crate::integrator::irradiance_cache::{DeviceFirstVertex, DeviceVertex};
+        use crate::scene::layout::{IcVertexGpu, INVALID_INDEX};
+        let (width, height) = (self.backend.settings.width, self.backend.settings.height);
+        let pixels = width as u64 * height as u64;
+        let vertices = self.buffer("first vertices", pixels * std::mem::size_of::<IcVertexGpu>() as u64)?;
+        self.bind(27, vertices);
+        let b = &*self.backend;
+        // One pixel's cone, as the CPU's overture (`first_lambertian_vertex`).
+        let cone = crate::scene::camera::camera_ray_cone(&b.camera, height, 1);
+        let params = FrameParams {
+            cone_width: cone.width,
+            cone_spread: cone.spread,
+            ..b.frame_params(0, 1, 0, height)
+        };
+        let pipeline = b.ctx.ic_first_vertex_kernel(&b.kernel)?;
+        b.dispatch(pipeline, params)?;
+        let found: Vec<IcVertexGpu> = b.read_back(&b.bind_buffers[27])?;
+        Ok(found
+            .iter()
+            .map(|v| DeviceFirstVertex {
+                found: (v.triangle != INVALID_INDEX).then(|| DeviceVertex {
+                    p: v.p.into(),
+                    frame: crate::geometry::Frame {
+                        x: v.frame_x.into(),
+                        y: v.frame_y.into(),
+                        z: v.frame_z.into(),
+                    },
+                    footprint: v.footprint,
+                }),
+                rays: v.rays,
+            })
+            .collect())
+    }
+
+    fn gather_round(
+        &mut self,
+        pixel_indices: &[u32],
+        round: u32,
+    ) -> Result<Vec<crate::integrator::irradiance_cache::DeviceGatherRay>> {
+        use crate::integrator::irradiance_cache::DeviceGatherRay;
+        use crate::scene::layout::IcGatherResultGpu;
+        let strata = {
+            let (m, n) = crate::integrator::irradiance_cache::gather_strata(
+                self.backend.settings.irradiance_cache.expect("a cache is being placed").gather_rays,
+            );
+            (m * n) as u64
+        };
+        let records = pixel_indices.len() as u64;
+        let jobs = records * strata;
+        if jobs > u32::MAX as u64 {
+            return Err(Error::Gpu(format!("{jobs} irradiance-cache gather rays in one round: too many")));
+        }
+        if records > self.capacity.0 {
+            let buffer = self.buffer("gather pixels", records * 4)?;
+            self.bind(28, buffer);
+            self.capacity.0 = records;
+        }
+        if jobs > self.capacity.1 {
+            let buffer =
+                self.buffer("gather results", jobs * std::mem::size_of::<IcGatherResultGpu>() as u64)?;
+            self.bind(29, buffer);
+            self.capacity.1 = jobs;
+        }
+        let b = &*self.backend;
+        b.ctx.queue.write_buffer(&b.bind_buffers[28], 0, bytemuck::cast_slice(pixel_indices));
+        let base = FrameParams {
+            ic_gather_round: round,
+            // The gathers' paths: no splitting, nothing light traced (`gather_settings`).
+            splits: 1,
+            light_traced_caustics: 0,
+            ..b.frame_params(0, 1, 0, b.settings.height)
+        };
+        let mut offset = 0u32;
+        let mut last = None;
+        while (offset as u64) < jobs {
+            let count = (jobs - offset as u64).min(IC_GATHER_JOBS_PER_DISPATCH as u64) as u32;
+            let params = FrameParams { ic_gather_jobs: count, ic_gather_job_offset: offset, ..base };
+            last = Some(b.submit_groups(&b.kernel.render, params, b.item_groups(count)));
+            offset += count;
+        }
+        if let Some(index) = last {
+            b.wait(index)?;
+        }
+        let bytes = jobs * std::mem::size_of::<IcGatherResultGpu>() as u64;
+        let results: Vec<IcGatherResultGpu> =
+            b.ctx.read_buffer_range(&b.bind_buffers[29], 0..bytes, SUBMIT_TIMEOUT)?;
+        Ok(results
+            .iter()
+            .map(|r| DeviceGatherRay {
+                radiance: r.radiance.into(),
+                distance: if r.distance >= 0.0 { r.distance } else { f32::INFINITY },
+                rays: r.rays,
+            })
+            .collect())
     }
 }

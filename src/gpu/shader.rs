@@ -34,9 +34,13 @@ pub const COMMON_FILES: &[ShaderFile] = &[
     ("aov.wgsl", include_str!("../../shaders/aov.wgsl")),
 ];
 
-/// The path tracer's irradiance-cache lookup, its entry point (`render`) and its caustic
-/// light tracer's (`trace_caustics`).
+/// Next-event estimation, which the path tracer and photon mapping's camera paths share.
+const NEXT_EVENT: ShaderFile = ("next_event.wgsl", include_str!("../../shaders/next_event.wgsl"));
+
+/// The path tracer's irradiance cache (its lookup and placement passes), its entry point
+/// (`render`) and its caustic light tracer's (`trace_caustics`).
 const PATH_FILES: &[ShaderFile] = &[
+    NEXT_EVENT,
     ("irradiance_cache.wgsl", include_str!("../../shaders/irradiance_cache.wgsl")),
     ("path.wgsl", include_str!("../../shaders/path.wgsl")),
     ("light_tracing.wgsl", include_str!("../../shaders/light_tracing.wgsl")),
@@ -58,19 +62,14 @@ const MLT_FILES: &[ShaderFile] = &[
 ];
 
 /// Stochastic progressive photon mapping's passes (shaders/sppm.wgsl): its camera paths use
-/// the path tracer's next-event estimation (and so its files), its photons the subpath walk.
-const SPPM_FILES: &[ShaderFile] = &[
-    ("irradiance_cache.wgsl", include_str!("../../shaders/irradiance_cache.wgsl")),
-    ("path.wgsl", include_str!("../../shaders/path.wgsl")),
-    BDPT_WALK,
-    ("sppm.wgsl", include_str!("../../shaders/sppm.wgsl")),
-];
+/// the path tracer's next-event estimation, its photons the subpath walk.
+const SPPM_FILES: &[ShaderFile] =
+    &[NEXT_EVENT, BDPT_WALK, ("sppm.wgsl", include_str!("../../shaders/sppm.wgsl"))];
 
 /// The photon-map integrator's render (shaders/photon.wgsl) after SPPM's files, whose
 /// camera path, photon passes and gathers it uses.
 const PHOTON_FILES: &[ShaderFile] = &[
-    ("irradiance_cache.wgsl", include_str!("../../shaders/irradiance_cache.wgsl")),
-    ("path.wgsl", include_str!("../../shaders/path.wgsl")),
+    NEXT_EVENT,
     BDPT_WALK,
     ("sppm.wgsl", include_str!("../../shaders/sppm.wgsl")),
     ("photon.wgsl", include_str!("../../shaders/photon.wgsl")),

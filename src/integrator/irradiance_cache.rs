@@ -50,11 +50,15 @@
 //! the stride-1 level every pixel's own point is covered; samples that land where none is
 //! valid (an accuracy below a pixel, or a path through glass) are path traced.
 //!
-//! **GPU.** The GPU backend places the same records on the host (this module, from the same
-//! streams) and uploads them with their grid as [`IrradianceCacheTables`]; its kernel's
-//! twin of [`IrradianceCache::lookup`] (`shaders/irradiance_cache.wgsl`) reads them in the
-//! host's order, so the two backends' images agree to rounding. Placing records with GPU
-//! passes (mark, gather in parallel, index) is not built yet.
+//! **GPU.** The GPU backend places the records with device passes
+//! ([`IrradianceCache::build_on_device`]): one pass finds every pixel's first Lambertian
+//! vertex (`ic_first_vertex`), and each phase's gather rounds run one gather ray per
+//! invocation through the path tracer's own bounce loop (`render`'s gather mode), from the
+//! same streams as here. The host runs the phases around them: which pixels need a record,
+//! each record's reduction of its rays, the neighbour clamping and the grid, uploaded as
+//! [`IrradianceCacheTables`]. The kernel's twin of [`IrradianceCache::lookup`]
+//! (`shaders/irradiance_cache.wgsl`) reads them in the host's order, so the two backends'
+//! records and images agree to rounding.
 //!
 //! **Bias.** Interpolation error (the radius and gradients), the records' own noise (each
 //! is one M × 3M gather, and a pixel reads the same records for all its samples) and, on
@@ -73,7 +77,7 @@ use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
 use super::path::indirect_radiance;
 use super::IntegratorSettings;
 use crate::bsdf::GltfBsdf;
-use crate::geometry::spawn_ray;
+use crate::geometry::{spawn_ray, Frame};
 use crate::sampling::{PathSampler, Rng, SamplerKind};
 use crate::scene::camera::{camera_ray_cone, generate_camera_ray, RayCone};
 use crate::scene::layout::Camera;
@@ -382,6 +386,43 @@ pub struct IrradianceCacheContext<'a> {
     pub seed: u32,
 }
 
+/// A pixel's first Lambertian vertex as a device's pass finds it
+/// ([`IrradianceCache::build_on_device`]).
+pub struct DeviceVertex {
+    pub p: Vec3,
+    /// The shading frame (z the normal on the side the camera path arrived from).
+    pub frame: Frame,
+    /// One pixel's footprint there.
+    pub footprint: f32,
+}
+
+/// What a device's first-vertex pass reports for one pixel: its vertex, if it has one, and
+/// the rays its overture path traced.
+pub struct DeviceFirstVertex {
+    pub found: Option<DeviceVertex>,
+    pub rays: u32,
+}
+
+/// One gather ray as a device traced it: its radiance (finite: a poisoned path reports
+/// none), its first hit's distance (infinite where it left the scene or was not traced) and
+/// the rays its path traced.
+pub struct DeviceGatherRay {
+    pub radiance: Vec3,
+    pub distance: f32,
+    pub rays: u32,
+}
+
+/// The passes a device runs for [`IrradianceCache::build_on_device`].
+pub trait GatherDevice {
+    /// Every pixel's first Lambertian vertex, row after row, as `first_lambertian_vertex`
+    /// finds it (the same numbers).
+    fn first_vertices(&mut self) -> crate::Result<Vec<DeviceFirstVertex>>;
+    /// Round `round` of the gathers of the records that pixels `pixel_indices` (y · width + x)
+    /// place: M × 3M rays per record ([`gather_strata`]), record after record and stratum
+    /// (j · 3M + k) after stratum, with the numbers `compute_record` draws.
+    fn gather_round(&mut self, pixel_indices: &[u32], round: u32) -> crate::Result<Vec<DeviceGatherRay>>;
+}
+
 /// Where a camera path meets its first Lambertian lobe.
 #[derive(Clone, Copy)]
 struct CacheVertex {
@@ -410,30 +451,82 @@ impl IrradianceCache {
     pub fn build(ctx: &IrradianceCacheContext) -> IrradianceCache {
         let start = std::time::Instant::now();
         let mut cache = IrradianceCache::empty(ctx.settings);
-        let coarsest = COARSEST_STRIDE.min(ctx.width.max(ctx.height).next_power_of_two());
-        let mut stride = coarsest;
-        loop {
-            let phases: &[(u32, u32)] =
-                if stride == coarsest { &[(0, 0)] } else { &[(1, 0), (0, 1), (1, 1)] };
-            for &(ox, oy) in phases {
-                // Pixels on the grid of this stride not on the coarser grid: offsets of one
-                // stride within a cell of two (the coarsest level takes its whole grid).
-                let step = if stride == coarsest { stride } else { 2 * stride };
-                let pixels: Vec<(u32, u32)> = (oy * stride..ctx.height)
-                    .step_by(step as usize)
-                    .flat_map(|y| (ox * stride..ctx.width).step_by(step as usize).map(move |x| (x, y)))
-                    .collect();
-                cache.place_phase(ctx, &pixels);
-            }
-            if stride == 1 {
-                break;
-            }
-            stride /= 2;
+        for pixels in overture_phases(ctx.width, ctx.height) {
+            cache.place_phase(ctx, &pixels);
         }
-        cache.stats.records = cache.records.len();
-        cache.stats.bytes = cache.memory_bytes();
-        cache.stats.seconds = start.elapsed().as_secs_f64();
+        cache.finish_stats(start);
         cache
+    }
+
+    /// Places the records for a camera with a device's passes (the GPU backend's): the
+    /// device finds every pixel's first Lambertian vertex in one pass and traces each
+    /// phase's gather rounds, one ray per invocation; the host runs the overture's phases
+    /// as [`Self::build`] does — which pixels need a record (a lookup in the records so far),
+    /// each record's reduction of its rays ([`RecordGather`]: the same sums in the same
+    /// order), the neighbour clamping and the grid. Those are a few operations per ray or
+    /// record against a path per ray, and the phases must see each other's records in
+    /// order, so they stay on the host. With the same numbers the records are the CPU
+    /// backend's up to the devices' rounding.
+    pub fn build_on_device(
+        ctx: &IrradianceCacheContext,
+        device: &mut dyn GatherDevice,
+    ) -> crate::Result<IrradianceCache> {
+        let start = std::time::Instant::now();
+        let mut cache = IrradianceCache::empty(ctx.settings);
+        let vertices = device.first_vertices()?;
+        cache.stats.overture_rays = vertices.iter().map(|v| v.rays as u64).sum();
+        for pixels in overture_phases(ctx.width, ctx.height) {
+            // The phase's pixels whose vertex no record covers yet, each with its gather.
+            let mut pending: Vec<((u32, u32), &DeviceVertex, RecordGather)> = pixels
+                .iter()
+                .filter_map(|&(x, y)| {
+                    let v = vertices[(y * ctx.width + x) as usize].found.as_ref()?;
+                    cache
+                        .irradiance(v.p, v.frame.z)
+                        .is_none()
+                        .then(|| ((x, y), v, RecordGather::new(ctx.settings)))
+                })
+                .collect();
+            // The records still gathering, all at the same round.
+            let mut active: Vec<usize> = (0..pending.len()).collect();
+            let mut round = 0;
+            while !active.is_empty() {
+                let pixel_indices: Vec<u32> =
+                    active.iter().map(|&i| pending[i].0 .1 * ctx.width + pending[i].0 .0).collect();
+                let results = device.gather_round(&pixel_indices, round)?;
+                let mut still = Vec::new();
+                for (slot, &i) in active.iter().enumerate() {
+                    let gather = &mut pending[i].2;
+                    let count = gather.count();
+                    gather.begin_round();
+                    for stratum in 0..count {
+                        let r = &results[(slot as u32 * count + stratum) as usize];
+                        cache.stats.gather_rays += r.rays as u64;
+                        let u =
+                            gather_sampler(pixel_indices[slot], round, stratum, count, ctx.seed).next_2d();
+                        // A ray the device did not trace (below the surface) reports no light
+                        // and no hit: adding it changes no sum, as the CPU's skipping it.
+                        gather.add(stratum, gather.direction(stratum, u), r.radiance, r.distance);
+                    }
+                    if gather.end_round() {
+                        still.push(i);
+                    }
+                }
+                active = still;
+                round += 1;
+            }
+            for (pixel, v, gather) in pending {
+                cache.add(gather.record(ctx, v.p, &v.frame, v.footprint, pixel));
+            }
+        }
+        cache.finish_stats(start);
+        Ok(cache)
+    }
+
+    fn finish_stats(&mut self, start: std::time::Instant) {
+        self.stats.records = self.records.len();
+        self.stats.bytes = self.memory_bytes();
+        self.stats.seconds = start.elapsed().as_secs_f64();
     }
 
     /// The cache in the kernel's form ([`IrradianceCacheTables`]).
@@ -609,6 +702,32 @@ impl IrradianceCache {
     }
 }
 
+/// The overture's phases, in order: the pixels on grids of halving stride, coarsest first
+/// (its whole grid), then each finer level in three phases, the pixels one stride apart
+/// within cells of two strides (offsets (1, 0), (0, 1), (1, 1)). Every pixel is in one phase.
+fn overture_phases(width: u32, height: u32) -> Vec<Vec<(u32, u32)>> {
+    let coarsest = COARSEST_STRIDE.min(width.max(height).next_power_of_two());
+    let mut phases = Vec::new();
+    let mut stride = coarsest;
+    loop {
+        let offsets: &[(u32, u32)] = if stride == coarsest { &[(0, 0)] } else { &[(1, 0), (0, 1), (1, 1)] };
+        let step = if stride == coarsest { stride } else { 2 * stride };
+        for &(ox, oy) in offsets {
+            phases.push(
+                (oy * stride..height)
+                    .step_by(step as usize)
+                    .flat_map(|y| (ox * stride..width).step_by(step as usize).map(move |x| (x, y)))
+                    .collect(),
+            );
+        }
+        if stride == 1 {
+            break;
+        }
+        stride /= 2;
+    }
+    phases
+}
+
 /// The first vertex with a Lambertian lobe of pixel (x, y)'s overture camera path (through
 /// delta bounces only; `None` where the path leaves, meets a glossy-only surface first, or
 /// ends).
@@ -656,126 +775,203 @@ fn compute_record(
     pixel: (u32, u32),
     rays: &mut u64,
 ) -> IrradianceRecord {
-    let (m, n) = gather_strata(ctx.settings.gather_rays);
-    let count = m * n;
     let si = &v.si;
     let pixel_index = pixel.1 * ctx.width + pixel.0;
     let cone = RayCone { width: v.footprint, spread: 0.0 };
-    let target = GATHER_RELATIVE_ERROR * ctx.settings.accuracy;
-    // Per stratum (j, k), j polar and k azimuthal: radiance and first-hit distance of the
-    // round in hand.
-    let mut radiance = vec![Vec3::ZERO; count as usize];
-    let mut distance = vec![f32::INFINITY; count as usize];
-    let mut rotational = [Vec3::ZERO; 3];
-    let mut translational = [Vec3::ZERO; 3];
-    let mut inverse_distances = 0.0f64;
-    let mut sum = Vec3::ZERO;
-    // Σ L² in luminance over every ray, for the estimate's standard error.
-    let mut sum_squares = 0.0f64;
-    let mut rounds = 0;
-    while rounds < MAX_GATHER_ROUNDS {
-        for j in 0..m {
-            for k in 0..n {
-                let stratum = (j * n + k) as usize;
-                radiance[stratum] = Vec3::ZERO;
-                distance[stratum] = f32::INFINITY;
-                let index = rounds * count + stratum as u32;
-                let mut sampler = PathSampler::Independent(Rng::new(pixel_index, IC_STREAM, index, ctx.seed));
-                let u: Vec2 = sampler.next_2d();
-                let sin2 = (j as f32 + u.x) / m as f32;
-                let (sin_theta, cos_theta) = (sin2.sqrt(), (1.0 - sin2).max(0.0).sqrt());
-                let phi = std::f32::consts::TAU * (k as f32 + u.y) / n as f32;
-                let (sin_phi, cos_phi) = phi.sin_cos();
-                let local = Vec3::new(sin_theta * cos_phi, sin_theta * sin_phi, cos_theta);
-                let world = si.frame.from_local(local).normalize();
-                if !sides_agree(si, world, local) {
-                    continue;
-                }
-                let ray = spawn_ray(si.p, si.p_error, si.n_geometric, world);
-                let (l, d) = indirect_radiance(ctx.scene, ctx.integrator, ray, cone, &mut sampler, rays);
-                // A poisoned path (non-finite throughput) counts as no light, as the film
-                // rejects it.
-                let l = if l.is_finite() { l } else { Vec3::ZERO };
-                radiance[stratum] = l;
-                distance[stratum] = d;
-                sum += l;
-                sum_squares += (l.dot(LUMINANCE) as f64).powi(2);
-                if d.is_finite() && d > 0.0 {
-                    inverse_distances += 1.0 / d as f64;
-                }
-                rotational_add(&mut rotational, local, l);
+    let mut gather = RecordGather::new(ctx.settings);
+    loop {
+        gather.begin_round();
+        for stratum in 0..gather.count() {
+            let mut sampler = gather_sampler(pixel_index, gather.rounds, stratum, gather.count(), ctx.seed);
+            let local = gather.direction(stratum, sampler.next_2d());
+            let world = si.frame.from_local(local).normalize();
+            if !sides_agree(si, world, local) {
+                continue;
             }
+            let ray = spawn_ray(si.p, si.p_error, si.n_geometric, world);
+            let (l, d) = indirect_radiance(ctx.scene, ctx.integrator, ray, cone, &mut sampler, rays);
+            // A poisoned path (non-finite throughput) counts as no light, as the film
+            // rejects it.
+            gather.add(stratum, local, if l.is_finite() { l } else { Vec3::ZERO }, d);
         }
-        let round = translational_gradient(&radiance, &distance, m, n);
-        for c in 0..3 {
-            translational[c] += round[c];
-        }
-        rounds += 1;
-        // The estimate's relative standard error, the strata taken as independent samples
-        // (stratification only lowers it): another round while it is above the target.
-        let samples = (rounds * count) as f64;
-        let mean = sum.dot(LUMINANCE) as f64 / samples;
-        let variance = (sum_squares / samples - mean * mean).max(0.0) / samples;
-        if mean <= 0.0 || variance.sqrt() <= target as f64 * mean {
+        if !gather.end_round() {
             break;
         }
     }
-    let samples = (rounds * count) as f32;
-    let e = sum * (std::f32::consts::PI / samples);
-    for g in &mut rotational {
-        *g *= std::f32::consts::PI / samples;
+    gather.record(ctx, si.p, &si.frame, v.footprint, pixel)
+}
+
+/// The numbers of gather ray `stratum` of round `round` of the record placed by pixel
+/// `pixel_index`: `Rng::new(pixel, IC_STREAM, round · strata + stratum, seed)`, the first
+/// pair choosing the direction within the stratum (WGSL twin: `ic_gather_start`).
+fn gather_sampler(pixel_index: u32, round: u32, stratum: u32, strata: u32, seed: u32) -> PathSampler {
+    PathSampler::Independent(Rng::new(pixel_index, IC_STREAM, round * strata + stratum, seed))
+}
+
+/// One record's gather as its rounds come in, on either backend: the stratified sums of
+/// Ward & Heckbert (irradiance, harmonic mean distance, rotational and translational
+/// gradients) and the estimate's error, which decides whether another round is traced.
+struct RecordGather {
+    /// Polar and azimuthal strata (M, 3M).
+    m: u32,
+    n: u32,
+    /// Rounds added so far.
+    rounds: u32,
+    /// Another round while the relative standard error is above this.
+    target: f32,
+    /// Per stratum (j, k), j polar and k azimuthal: radiance and first-hit distance of the
+    /// round in hand.
+    radiance: Vec<Vec3>,
+    distance: Vec<f32>,
+    rotational: [Vec3; 3],
+    translational: [Vec3; 3],
+    inverse_distances: f64,
+    sum: Vec3,
+    /// Σ L² in luminance over every ray, for the estimate's standard error.
+    sum_squares: f64,
+}
+
+impl RecordGather {
+    fn new(settings: IrradianceCacheSettings) -> RecordGather {
+        let (m, n) = gather_strata(settings.gather_rays);
+        RecordGather {
+            m,
+            n,
+            rounds: 0,
+            target: GATHER_RELATIVE_ERROR * settings.accuracy,
+            radiance: vec![Vec3::ZERO; (m * n) as usize],
+            distance: vec![f32::INFINITY; (m * n) as usize],
+            rotational: [Vec3::ZERO; 3],
+            translational: [Vec3::ZERO; 3],
+            inverse_distances: 0.0,
+            sum: Vec3::ZERO,
+            sum_squares: 0.0,
+        }
     }
-    for g in &mut translational {
-        *g /= rounds as f32;
+
+    /// Rays per round, M × 3M.
+    fn count(&self) -> u32 {
+        self.m * self.n
     }
-    let harmonic =
-        if inverse_distances > 0.0 { (samples as f64 / inverse_distances) as f32 } else { f32::INFINITY };
-    // The gradient limit: E changes by no more than itself across the radius.
-    let e_lum = e.dot(LUMINANCE);
-    let grad_lum =
-        (translational[0] * LUMINANCE.x + translational[1] * LUMINANCE.y + translational[2] * LUMINANCE.z)
+
+    /// Stratum (j, k)'s direction in the record's shading frame for the pair `u`:
+    /// θ_j = asin √((j + u.x)/M), φ_k = 2π(k + u.y)/3M (cosine-distributed strata).
+    fn direction(&self, stratum: u32, u: Vec2) -> Vec3 {
+        let (j, k) = (stratum / self.n, stratum % self.n);
+        let sin2 = (j as f32 + u.x) / self.m as f32;
+        let (sin_theta, cos_theta) = (sin2.sqrt(), (1.0 - sin2).max(0.0).sqrt());
+        let phi = std::f32::consts::TAU * (k as f32 + u.y) / self.n as f32;
+        let (sin_phi, cos_phi) = phi.sin_cos();
+        Vec3::new(sin_theta * cos_phi, sin_theta * sin_phi, cos_theta)
+    }
+
+    /// Starts a round: every stratum without light and without a hit until added.
+    fn begin_round(&mut self) {
+        self.radiance.fill(Vec3::ZERO);
+        self.distance.fill(f32::INFINITY);
+    }
+
+    /// Stratum `stratum`'s ray of this round: direction `local`, radiance `l` (finite),
+    /// first-hit distance `d` (infinite where it left the scene). A stratum whose
+    /// direction is below the geometric surface is not added.
+    fn add(&mut self, stratum: u32, local: Vec3, l: Vec3, d: f32) {
+        self.radiance[stratum as usize] = l;
+        self.distance[stratum as usize] = d;
+        self.sum += l;
+        self.sum_squares += (l.dot(LUMINANCE) as f64).powi(2);
+        if d.is_finite() && d > 0.0 {
+            self.inverse_distances += 1.0 / d as f64;
+        }
+        rotational_add(&mut self.rotational, local, l);
+    }
+
+    /// Ends a round; true where another is wanted: the estimate's relative standard error
+    /// (the strata taken as independent samples; stratification only lowers it) is above
+    /// the target and fewer than [`MAX_GATHER_ROUNDS`] were traced.
+    fn end_round(&mut self) -> bool {
+        let round = translational_gradient(&self.radiance, &self.distance, self.m, self.n);
+        for (total, g) in self.translational.iter_mut().zip(round) {
+            *total += g;
+        }
+        self.rounds += 1;
+        let samples = (self.rounds * self.count()) as f64;
+        let mean = self.sum.dot(LUMINANCE) as f64 / samples;
+        let variance = (self.sum_squares / samples - mean * mean).max(0.0) / samples;
+        let converged = mean <= 0.0 || variance.sqrt() <= self.target as f64 * mean;
+        !converged && self.rounds < MAX_GATHER_ROUNDS
+    }
+
+    /// The record at point `p` with shading frame `frame` and pixel footprint `footprint`.
+    fn record(
+        mut self,
+        ctx: &IrradianceCacheContext,
+        p: Vec3,
+        frame: &Frame,
+        footprint: f32,
+        pixel: (u32, u32),
+    ) -> IrradianceRecord {
+        let samples = (self.rounds * self.count()) as f32;
+        let e = self.sum * (std::f32::consts::PI / samples);
+        for g in &mut self.rotational {
+            *g *= std::f32::consts::PI / samples;
+        }
+        for g in &mut self.translational {
+            *g /= self.rounds as f32;
+        }
+        let harmonic = if self.inverse_distances > 0.0 {
+            (samples as f64 / self.inverse_distances) as f32
+        } else {
+            f32::INFINITY
+        };
+        // The gradient limit: E changes by no more than itself across the radius.
+        let e_lum = e.dot(LUMINANCE);
+        let translational = self.translational;
+        let grad_lum = (translational[0] * LUMINANCE.x
+            + translational[1] * LUMINANCE.y
+            + translational[2] * LUMINANCE.z)
             .length();
-    let gradient_limit = if grad_lum > 0.0 && e_lum > 0.0 { e_lum / grad_lum } else { f32::INFINITY };
-    let to_world = |g: Vec3| si.frame.from_local(g);
-    let footprint = v.footprint.max(ctx.scene.scene_radius * 1e-6);
-    let mut record = IrradianceRecord {
-        p: si.p,
-        n: si.frame.z,
-        e,
-        radius: harmonic.min(gradient_limit),
-        bounds: (
-            MIN_SPACING_PIXELS * footprint,
-            (MAX_SPACING_FRACTION * ctx.height as f32).max(MIN_SPACING_PIXELS) * footprint,
-        ),
-        rotational: rotational.map(to_world),
-        translational: translational.map(to_world),
-        pixel,
-    };
-    // The pixel clamp can raise the radius past the gradient limit (a record in a corner,
-    // whose gather rays' short hits make its gradient large and noisy): the gradient is then
-    // scaled down so that across the radius it still changes E by at most E. Neighbour
-    // clamping only shrinks the radius later, so the bound holds at every lookup.
-    let clamped = record.clamped_radius();
-    if clamped > gradient_limit {
-        let scale = gradient_limit / clamped;
-        for g in &mut record.translational {
-            *g *= scale;
+        let gradient_limit = if grad_lum > 0.0 && e_lum > 0.0 { e_lum / grad_lum } else { f32::INFINITY };
+        let to_world = |g: Vec3| frame.from_local(g);
+        let footprint = footprint.max(ctx.scene.scene_radius * 1e-6);
+        let mut record = IrradianceRecord {
+            p,
+            n: frame.z,
+            e,
+            radius: harmonic.min(gradient_limit),
+            bounds: (
+                MIN_SPACING_PIXELS * footprint,
+                (MAX_SPACING_FRACTION * ctx.height as f32).max(MIN_SPACING_PIXELS) * footprint,
+            ),
+            rotational: self.rotational.map(to_world),
+            translational: translational.map(to_world),
+            pixel,
+        };
+        // The pixel clamp can raise the radius past the gradient limit (a record in a corner,
+        // whose gather rays' short hits make its gradient large and noisy): the gradient is then
+        // scaled down so that across the radius it still changes E by at most E. Neighbour
+        // clamping only shrinks the radius later, so the bound holds at every lookup.
+        let clamped = record.clamped_radius();
+        if clamped > gradient_limit {
+            let scale = gradient_limit / clamped;
+            for g in &mut record.translational {
+                *g *= scale;
+            }
         }
-    }
-    // Likewise the rotational gradient across the normals a record serves (|n_i × n| up to
-    // sin 10° at accuracy 1): its tan θ weights make one grazing gather ray dominate it.
-    let turn_limit = MAX_NORMAL_DEVIATION_DEGREES.to_radians().sin();
-    let rot_lum = (record.rotational[0] * LUMINANCE.x
-        + record.rotational[1] * LUMINANCE.y
-        + record.rotational[2] * LUMINANCE.z)
-        .length();
-    if rot_lum * turn_limit > e_lum {
-        let scale = if rot_lum > 0.0 { e_lum / (rot_lum * turn_limit) } else { 0.0 };
-        for g in &mut record.rotational {
-            *g *= scale;
+        // Likewise the rotational gradient across the normals a record serves (|n_i × n| up to
+        // sin 10° at accuracy 1): its tan θ weights make one grazing gather ray dominate it.
+        let turn_limit = MAX_NORMAL_DEVIATION_DEGREES.to_radians().sin();
+        let rot_lum = (record.rotational[0] * LUMINANCE.x
+            + record.rotational[1] * LUMINANCE.y
+            + record.rotational[2] * LUMINANCE.z)
+            .length();
+        if rot_lum * turn_limit > e_lum {
+            let scale = if rot_lum > 0.0 { e_lum / (rot_lum * turn_limit) } else { 0.0 };
+            for g in &mut record.rotational {
+                *g *= scale;
+            }
         }
+        record
     }
-    record
 }
 
 /// Adds one gather sample (local direction ω, radiance L) to the rotational gradient
@@ -843,6 +1039,19 @@ fn translational_gradient(radiance: &[Vec3], distance: &[f32], m: u32, n: u32) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_overture_visits_every_pixel_once() {
+        for (w, h) in [(1, 1), (7, 3), (64, 64), (100, 37)] {
+            let mut seen = vec![0; (w * h) as usize];
+            for phase in overture_phases(w, h) {
+                for (x, y) in phase {
+                    seen[(y * w + x) as usize] += 1;
+                }
+            }
+            assert!(seen.iter().all(|&n| n == 1), "{w}×{h}: {seen:?}");
+        }
+    }
 
     #[test]
     fn gather_strata_are_m_by_3m() {

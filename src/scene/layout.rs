@@ -343,7 +343,7 @@ pub const PROJECTION_PERSPECTIVE: u32 = 0;
 pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
 
 gpu_struct! {
-    /// What one dispatch computes, 160 bytes.
+    /// What one dispatch computes, 176 bytes.
     pub struct FrameParams {
         pub width: u32,
         pub height: u32,
@@ -425,6 +425,14 @@ gpu_struct! {
         pub mlt_mutations: u32,
         pub mlt_large_step: f32,
         pub mlt_scale: f32,
+        /// The irradiance cache's gathers on the device (`render` under `IRRADIANCE_CACHE`
+        /// with `ic_gather_jobs` > 0 traces gather rays instead of camera samples; shaders/
+        /// path.wgsl): the dispatch's jobs (one gather ray each), the first job's index in the
+        /// round, the round, and the gather's polar strata M (3M azimuthal).
+        pub ic_gather_jobs: u32,
+        pub ic_gather_job_offset: u32,
+        pub ic_gather_round: u32,
+        pub ic_gather_polar_strata: u32,
     }
 }
 
@@ -528,6 +536,46 @@ gpu_struct! {
         /// Per colour channel, xyz.
         pub rotational: [[f32; 4]; 3],
         pub translational: [[f32; 4]; 3],
+    }
+}
+
+gpu_struct! {
+    /// A pixel's first Lambertian vertex as the irradiance cache's placement passes find it on
+    /// the device (`ic_first_vertex` in shaders/irradiance_cache.wgsl, twin of
+    /// `integrator::irradiance_cache::first_lambertian_vertex`): the ray and the hit that
+    /// make it (the gathers shade it again from them, with the same bits), and what the host
+    /// reads: the point, its footprint and its shading frame. `triangle` is `INVALID_INDEX`
+    /// where the pixel has no such vertex. 112 bytes.
+    pub struct IcVertexGpu {
+        pub origin: [f32; 3],
+        pub triangle: u32,
+        pub direction: [f32; 3],
+        pub t: f32,
+        pub b: [f32; 3],
+        pub cone_width: f32,
+        pub p: [f32; 3],
+        pub footprint: f32,
+        pub frame_x: [f32; 3],
+        /// Rays the pixel's overture path traced.
+        pub rays: u32,
+        pub frame_y: [f32; 3],
+        pub _pad0: u32,
+        pub frame_z: [f32; 3],
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// One gather ray's result on the device (`render`'s gather mode): the radiance it
+    /// brings back and its first hit's distance (negative where it left the scene or was
+    /// not traced), and the rays its path traced. 32 bytes.
+    pub struct IcGatherResultGpu {
+        pub radiance: [f32; 3],
+        pub distance: f32,
+        pub rays: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 
@@ -655,6 +703,8 @@ pub fn all_layouts() -> Vec<StructLayout> {
         entry::<FrameParams>(),
         entry::<IrradianceRecordGpu>(),
         entry::<IrradianceCell>(),
+        entry::<IcVertexGpu>(),
+        entry::<IcGatherResultGpu>(),
         entry::<SppmPixelGpu>(),
         entry::<SppmVisiblePoint>(),
         entry::<SppmPhoton>(),
