@@ -332,7 +332,8 @@ impl GpuContext {
         // per-dispatch ones are storage buffers: lavapipe recompiles the kernel for every
         // re-bound uniform that steers its branches (see shaders/bindings.wgsl).
         // `film`, `first_hits`, `ray_counts`, `caustics`, `bdpt_state` and `aovs`, which the
-        // kernels write, and photon mapping's own.
+        // kernels write, and each integrator's own (photon mapping's, Metropolis's, the
+        // irradiance cache's placement).
         let read_write = [7, 8, 9, 19, 20, 21, 27, 28, 29, 30, 31];
         let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..kernel_bindings(integrator))
             .map(|binding| {

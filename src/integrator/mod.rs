@@ -8,7 +8,7 @@
 //! | stochastic progressive photon mapping (biased, consistent) | `sppm` | [`sppm`] | none yet: the GPU backend refuses it |
 //! | photon mapping: caustic and global maps, final gather (biased) | `photon` | [`photon`] | none yet: the GPU backend refuses it |
 //! | Metropolis light transport over BDPT's strategies, multiplexed (primary sample space) | `mlt` | [`mlt`] | none yet: the GPU backend refuses it |
-//! | the path tracer with an irradiance cache for the first Lambertian vertex's indirect light (biased) | `path --irradiance-cache` | [`irradiance_cache`] | `shaders/irradiance_cache.wgsl`: the lookup (records placed on the host for both backends) |
+//! | the path tracer with an irradiance cache for the first Lambertian vertex's indirect light (biased) | `path --irradiance-cache` | [`irradiance_cache`] | `shaders/irradiance_cache.wgsl`: the lookup and the placement passes (first vertices, gather rays) |
 //!
 //! What every integrator shares lives beside them, each with a WGSL twin of the same name:
 //! * [`interaction`]: the surface record built at every path vertex and the side test of a
