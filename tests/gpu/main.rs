@@ -148,29 +148,32 @@ fn same_seed_agrees_scene(file: &str, scene: &pathlight::scene::FlatScene, toler
 
 /// [`same_seed_agrees_scene`] at settings `s` (32×32, 16 spp with other splitting or
 /// sampler).
-fn same_seed_agrees_with(
+fn same_seed_agrees_with<'a>(
     file: &str,
-    scene: &pathlight::scene::FlatScene,
+    scene: &'a pathlight::scene::FlatScene,
     tolerance: f32,
     s: &RenderSettings,
-) {
-    same_seed_agrees_within(file, scene, tolerance, 1, s);
+) -> Option<(CpuBackend<'a>, GpuBackend)> {
+    same_seed_agrees_within(file, scene, tolerance, 1, s)
 }
 
 /// [`same_seed_agrees_with`], with up to `percent` % of the pixels allowed to differ by more
-/// than `tolerance`.
-fn same_seed_agrees_within(
+/// than `tolerance`. Returns the two backends after their renders (for what else a test
+/// compares), or `None` without a GPU.
+fn same_seed_agrees_within<'a>(
     file: &str,
-    scene: &pathlight::scene::FlatScene,
+    scene: &'a pathlight::scene::FlatScene,
     tolerance: f32,
     percent: usize,
     s: &RenderSettings,
-) {
-    let Some(ctx) = common::gpu() else { return };
+) -> Option<(CpuBackend<'a>, GpuBackend)> {
+    let ctx = common::gpu()?;
     let (size, spp) = (s.width, s.spp);
     assert_eq!((size, s.height), (32, 32), "scenes are flattened for 32×32");
-    let a = common::render(&mut CpuBackend::new(scene, s), spp);
-    let b = common::render(&mut GpuBackend::new(ctx, scene, s).unwrap(), spp);
+    let mut cpu = CpuBackend::new(scene, s);
+    let mut gpu = GpuBackend::new(ctx, scene, s).unwrap();
+    let a = common::render(&mut cpu, spp);
+    let b = common::render(&mut gpu, spp);
     let mut disagree = Vec::new();
     for (i, (x, y)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         let (x, y) = (Vec3::from(x.mean), Vec3::from(y.mean));
@@ -193,6 +196,7 @@ fn same_seed_agrees_within(
         size * size,
         &disagree[..disagree.len().min(5)]
     );
+    Some((cpu, gpu))
 }
 
 /// Every bundled scene; `every_bundled_scene_is_compared` keeps this list honest.
@@ -290,24 +294,16 @@ fn irradiance_cache_renders_agree_to_rounding() {
                 irradiance_cache: Some(IrradianceCacheSettings::default()),
                 ..settings(32, 16, 9)
             };
-            same_seed_agrees_with(file, &scene, 1e-3, &s);
+            let (mut cpu, mut gpu) = same_seed_agrees_with(file, &scene, 1e-3, &s).expect("a GPU");
+            assert_eq!(cpu.irradiance_record_pixels(), gpu.irradiance_record_pixels(), "{file}");
+            // The device traced the same overture paths and the same gather rounds: a path the
+            // rounding lengthens or shortens changes the ray counts by a few (measured on the
+            // Cornell box at 64²: 6 of 1,968,661); 0.1% would be a record's extra round.
+            let (c, g) = (cpu.irradiance_cache_stats().unwrap(), gpu.irradiance_cache_stats().unwrap());
+            assert_eq!(c.overture_rays, g.overture_rays, "{file}");
+            let drift = (c.gather_rays as f64 - g.gather_rays as f64).abs() / c.gather_rays.max(1) as f64;
+            assert!(drift < 1e-3, "{file}: gather rays {} (CPU) vs {} (GPU)", c.gather_rays, g.gather_rays);
         }
-        let s = RenderSettings {
-            irradiance_cache: Some(IrradianceCacheSettings::default()),
-            ..settings(32, 2, 9)
-        };
-        let mut cpu = CpuBackend::new(&scene, &s);
-        let mut gpu = GpuBackend::new(ctx.clone(), &scene, &s).unwrap();
-        common::render(&mut cpu, 2);
-        common::render(&mut gpu, 2);
-        assert_eq!(cpu.irradiance_record_pixels(), gpu.irradiance_record_pixels(), "{file}");
-        // The device traced the same overture paths and the same gather rounds: a path the
-        // rounding lengthens or shortens changes the ray counts by a few (measured on the
-        // Cornell box at 64²: 6 of 1,968,661); 0.1% would be a record's extra round.
-        let (c, g) = (cpu.irradiance_cache_stats().unwrap(), gpu.irradiance_cache_stats().unwrap());
-        assert_eq!(c.overture_rays, g.overture_rays, "{file}");
-        let drift = (c.gather_rays as f64 - g.gather_rays as f64).abs() / c.gather_rays.max(1) as f64;
-        assert!(drift < 1e-3, "{file}: gather rays {} (CPU) vs {} (GPU)", c.gather_rays, g.gather_rays);
     }
     // A new camera: nearer the scene, the records land elsewhere, on both backends alike.
     let scene = common::flat_scene(&common::scene("cornell-box.gltf"), 32, 32);
