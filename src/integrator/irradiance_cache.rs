@@ -476,43 +476,59 @@ impl IrradianceCache {
         let vertices = device.first_vertices()?;
         cache.stats.overture_rays = vertices.iter().map(|v| v.rays as u64).sum();
         for pixels in overture_phases(ctx.width, ctx.height) {
-            // The phase's pixels whose vertex no record covers yet, each with its gather.
+            // The phase's pixels whose vertex no record covers yet, each with its gather (the
+            // lookups and, below, the reductions run on the host's cores).
+            let cache_so_far = &cache;
             let mut pending: Vec<((u32, u32), &DeviceVertex, RecordGather)> = pixels
-                .iter()
+                .par_iter()
                 .filter_map(|&(x, y)| {
                     let v = vertices[(y * ctx.width + x) as usize].found.as_ref()?;
-                    cache
+                    cache_so_far
                         .irradiance(v.p, v.frame.z)
                         .is_none()
                         .then(|| ((x, y), v, RecordGather::new(ctx.settings)))
                 })
                 .collect();
-            // The records still gathering, all at the same round.
-            let mut active: Vec<usize> = (0..pending.len()).collect();
+            // Which records still gather, all at the same round.
+            let mut active = vec![true; pending.len()];
             let mut round = 0;
-            while !active.is_empty() {
-                let pixel_indices: Vec<u32> =
-                    active.iter().map(|&i| pending[i].0 .1 * ctx.width + pending[i].0 .0).collect();
+            while active.contains(&true) {
+                let pixel_indices: Vec<u32> = pending
+                    .iter()
+                    .zip(&active)
+                    .filter(|(_, &a)| a)
+                    .map(|(((x, y), _, _), _)| y * ctx.width + x)
+                    .collect();
                 let results = device.gather_round(&pixel_indices, round)?;
-                let mut still = Vec::new();
-                for (slot, &i) in active.iter().enumerate() {
-                    let gather = &mut pending[i].2;
-                    let count = gather.count();
-                    gather.begin_round();
-                    for stratum in 0..count {
-                        let r = &results[(slot as u32 * count + stratum) as usize];
-                        cache.stats.gather_rays += r.rays as u64;
-                        let u =
-                            gather_sampler(pixel_indices[slot], round, stratum, count, ctx.seed).next_2d();
-                        // A ray the device did not trace (below the surface) reports no light
-                        // and no hit: adding it changes no sum, as the CPU's skipping it.
-                        gather.add(stratum, gather.direction(stratum, u), r.radiance, r.distance);
-                    }
-                    if gather.end_round() {
-                        still.push(i);
-                    }
-                }
-                active = still;
+                cache.stats.gather_rays += results.iter().map(|r| r.rays as u64).sum::<u64>();
+                // Record i's rays are those of its slot, its rank among the active records.
+                let slots: Vec<Option<usize>> = active
+                    .iter()
+                    .scan(0, |next, &a| {
+                        let slot = a.then_some(*next);
+                        *next += a as usize;
+                        Some(slot)
+                    })
+                    .collect();
+                active = pending
+                    .par_iter_mut()
+                    .zip(slots.par_iter())
+                    .map(|(&mut ((x, y), _, ref mut gather), slot)| {
+                        let Some(slot) = *slot else { return false };
+                        let count = gather.count();
+                        let rays = &results[slot * count as usize..(slot + 1) * count as usize];
+                        gather.begin_round();
+                        for (stratum, r) in (0..count).zip(rays) {
+                            let u =
+                                gather_sampler(y * ctx.width + x, round, stratum, count, ctx.seed).next_2d();
+                            // A ray the device did not trace (below the surface) reports no
+                            // light and no hit: adding it changes no sum, as the CPU's skipping
+                            // it.
+                            gather.add(stratum, gather.direction(stratum, u), r.radiance, r.distance);
+                        }
+                        gather.end_round()
+                    })
+                    .collect();
                 round += 1;
             }
             for (pixel, v, gather) in pending {
