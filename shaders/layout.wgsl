@@ -240,6 +240,7 @@ struct IrradianceCell {
     _pad1: u32,
 }
 
+// Twin of `IcVertexGpu` (`triangle` INVALID_INDEX: the pixel has no Lambertian vertex).
 struct IcVertexGpu {
     origin: vec3<f32>,
     triangle: u32,
@@ -257,6 +258,7 @@ struct IcVertexGpu {
     _pad1: u32,
 }
 
+// Twin of `IcGatherResultGpu` (`distance` negative: no hit).
 struct IcGatherResultGpu {
     radiance: vec3<f32>,
     distance: f32,

@@ -452,27 +452,30 @@ impl GpuContext {
     /// use: only tests and the first-hit AOV read it, and a render that does not need it
     /// should not wait for its build (on lavapipe a pipeline takes a second or more).
     pub fn first_hit_kernel<'k>(&self, kernel: &'k Kernel) -> Result<&'k wgpu::ComputePipeline> {
-        if let Some(pipeline) = kernel.first_hit.get() {
-            return Ok(pipeline);
-        }
-        let (pipeline, _) =
-            self.build_pipeline(&kernel.source, "first_hit", &kernel_constants(kernel.key))?;
-        // Two threads may both build it; the first to finish is kept.
-        let _ = kernel.first_hit.set(pipeline);
-        Ok(kernel.first_hit.get().expect("set above"))
+        self.built_on_first_use(kernel, &kernel.first_hit, "first_hit")
     }
 
     /// `kernel`'s irradiance-cache first-vertex pass (`ic_first_vertex` in
     /// shaders/irradiance_cache.wgsl; the path tracer's kernels only), built on first use:
     /// only a render with a cache runs it.
     pub fn ic_first_vertex_kernel<'k>(&self, kernel: &'k Kernel) -> Result<&'k wgpu::ComputePipeline> {
-        if let Some(pipeline) = kernel.ic_first_vertex.get() {
+        self.built_on_first_use(kernel, &kernel.ic_first_vertex, "ic_first_vertex")
+    }
+
+    /// The pipeline of `kernel`'s entry point `entry`, kept in `cell` once built.
+    fn built_on_first_use<'k>(
+        &self,
+        kernel: &Kernel,
+        cell: &'k std::sync::OnceLock<wgpu::ComputePipeline>,
+        entry: &str,
+    ) -> Result<&'k wgpu::ComputePipeline> {
+        if let Some(pipeline) = cell.get() {
             return Ok(pipeline);
         }
-        let (pipeline, _) =
-            self.build_pipeline(&kernel.source, "ic_first_vertex", &kernel_constants(kernel.key))?;
-        let _ = kernel.ic_first_vertex.set(pipeline);
-        Ok(kernel.ic_first_vertex.get().expect("set above"))
+        let (pipeline, _) = self.build_pipeline(&kernel.source, entry, &kernel_constants(kernel.key))?;
+        // Two threads may both build it; the first to finish is kept.
+        let _ = cell.set(pipeline);
+        Ok(cell.get().expect("set above"))
     }
 
     /// The light tracer's kernel (`trace_caustics` in shaders/light_tracing.wgsl)

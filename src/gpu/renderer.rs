@@ -671,21 +671,20 @@ impl GpuBackend {
         let Some(scene) = self.ic_scene.take() else {
             return Ok(());
         };
-        let s = self.settings.clone();
         let camera = self.camera;
-        let integrator = crate::integrator::irradiance_cache::gather_settings(&s);
+        let integrator = crate::integrator::irradiance_cache::gather_settings(&self.settings);
         let ctx = crate::integrator::irradiance_cache::IrradianceCacheContext {
             scene: &scene,
             camera: &camera,
             integrator: &integrator,
             settings,
-            width: s.width,
-            height: s.height,
-            seed: s.seed,
+            width: self.settings.width,
+            height: self.settings.height,
+            seed: self.settings.seed,
         };
         let built = crate::integrator::irradiance_cache::IrradianceCache::build_on_device(
             &ctx,
-            &mut IcPlacement { backend: self, capacity: (0, 0) },
+            &mut IcPlacement { backend: self },
         );
         self.ic_scene = Some(scene);
         let cache = built?;
@@ -1314,15 +1313,21 @@ impl GpuBackend {
     pub fn first_hits(&mut self) -> Result<Vec<FirstHit>> {
         // The first-hit AOV reads textures at a one-sample render's level of detail, as
         // `integrator::first_hit` does.
-        let cone = crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, 1);
-        let params = FrameParams {
-            cone_width: cone.width,
-            cone_spread: cone.spread,
-            ..self.frame_params(0, 1, 0, self.settings.height)
-        };
         let pipeline = self.ctx.first_hit_kernel(&self.kernel)?;
-        self.dispatch(pipeline, params)?;
+        self.dispatch(pipeline, self.one_pixel_cone_params())?;
         self.read_back(&self.first_hits)
+    }
+
+    /// The whole image's parameters with the camera rays' cone of a one-sample render (one
+    /// pixel's footprint), which the first-hit pass and the irradiance cache's overture
+    /// trace with.
+    fn one_pixel_cone_params(&self) -> FrameParams {
+        let params = self.frame_params(0, 1, 0, self.settings.height);
+        FrameParams {
+            cone_width: params.sppm_footprint_width,
+            cone_spread: params.sppm_footprint_spread,
+            ..params
+        }
     }
 }
 
@@ -1714,8 +1719,6 @@ impl Backend for GpuBackend {
 /// [`IrradianceCache::build_on_device`]: crate::integrator::irradiance_cache::IrradianceCache::build_on_device
 struct IcPlacement<'a> {
     backend: &'a mut GpuBackend,
-    /// Elements the bound gather-pixel and gather-result buffers hold.
-    capacity: (u64, u64),
 }
 
 /// Gather rays per dispatch: on lavapipe a few seconds of paths, on a GPU a small fraction
@@ -1752,20 +1755,13 @@ impl crate::integrator::irradiance_cache::GatherDevice for IcPlacement<'_> {
     fn first_vertices(&mut self) -> Result<Vec<crate::integrator::irradiance_cache::DeviceFirstVertex>> {
         use crate::integrator::irradiance_cache::{DeviceFirstVertex, DeviceVertex};
         use crate::scene::layout::{IcVertexGpu, INVALID_INDEX};
-        let (width, height) = (self.backend.settings.width, self.backend.settings.height);
-        let pixels = width as u64 * height as u64;
+        let pixels = self.backend.settings.width as u64 * self.backend.settings.height as u64;
         let vertices = self.buffer("first vertices", pixels * std::mem::size_of::<IcVertexGpu>() as u64)?;
         self.bind(27, vertices);
         let b = &*self.backend;
         // One pixel's cone, as the CPU's overture (`first_lambertian_vertex`).
-        let cone = crate::scene::camera::camera_ray_cone(&b.camera, height, 1);
-        let params = FrameParams {
-            cone_width: cone.width,
-            cone_spread: cone.spread,
-            ..b.frame_params(0, 1, 0, height)
-        };
         let pipeline = b.ctx.ic_first_vertex_kernel(&b.kernel)?;
-        b.dispatch(pipeline, params)?;
+        b.dispatch(pipeline, b.one_pixel_cone_params())?;
         let found: Vec<IcVertexGpu> = b.read_back(&b.bind_buffers[27])?;
         Ok(found
             .iter()
@@ -1791,37 +1787,31 @@ impl crate::integrator::irradiance_cache::GatherDevice for IcPlacement<'_> {
     ) -> Result<Vec<crate::integrator::irradiance_cache::DeviceGatherRay>> {
         use crate::integrator::irradiance_cache::DeviceGatherRay;
         use crate::scene::layout::IcGatherResultGpu;
-        let strata = {
-            let (m, n) = crate::integrator::irradiance_cache::gather_strata(
-                self.backend.settings.irradiance_cache.expect("a cache is being placed").gather_rays,
-            );
-            (m * n) as u64
-        };
-        let records = pixel_indices.len() as u64;
-        let jobs = records * strata;
-        if jobs > u32::MAX as u64 {
-            return Err(Error::Gpu(format!("{jobs} irradiance-cache gather rays in one round: too many")));
-        }
-        if records > self.capacity.0 {
-            let buffer = self.buffer("gather pixels", records * 4)?;
-            self.bind(28, buffer);
-            self.capacity.0 = records;
-        }
-        if jobs > self.capacity.1 {
-            let buffer =
-                self.buffer("gather results", jobs * std::mem::size_of::<IcGatherResultGpu>() as u64)?;
-            self.bind(29, buffer);
-            self.capacity.1 = jobs;
-        }
-        let b = &*self.backend;
-        b.ctx.queue.write_buffer(&b.bind_buffers[28], 0, bytemuck::cast_slice(pixel_indices));
         let base = FrameParams {
             ic_gather_round: round,
             // The gathers' paths: no splitting, nothing light traced (`gather_settings`).
             splits: 1,
             light_traced_caustics: 0,
-            ..b.frame_params(0, 1, 0, b.settings.height)
+            ..self.backend.frame_params(0, 1, 0, self.backend.settings.height)
         };
+        let m = base.ic_gather_polar_strata as u64;
+        let jobs = pixel_indices.len() as u64 * m * 3 * m;
+        if jobs > u32::MAX as u64 {
+            return Err(Error::Gpu(format!("{jobs} irradiance-cache gather rays in one round: too many")));
+        }
+        // The bound buffers grow to the largest round so far.
+        let pixel_bytes = std::mem::size_of_val(pixel_indices) as u64;
+        if pixel_bytes > self.backend.bind_buffers[28].size() {
+            let buffer = self.buffer("gather pixels", pixel_bytes)?;
+            self.bind(28, buffer);
+        }
+        let result_bytes = jobs * std::mem::size_of::<IcGatherResultGpu>() as u64;
+        if result_bytes > self.backend.bind_buffers[29].size() {
+            let buffer = self.buffer("gather results", result_bytes)?;
+            self.bind(29, buffer);
+        }
+        let b = &*self.backend;
+        b.ctx.queue.write_buffer(&b.bind_buffers[28], 0, bytemuck::cast_slice(pixel_indices));
         let mut offset = 0u32;
         let mut last = None;
         while (offset as u64) < jobs {
@@ -1833,9 +1823,8 @@ impl crate::integrator::irradiance_cache::GatherDevice for IcPlacement<'_> {
         if let Some(index) = last {
             b.wait(index)?;
         }
-        let bytes = jobs * std::mem::size_of::<IcGatherResultGpu>() as u64;
         let results: Vec<IcGatherResultGpu> =
-            b.ctx.read_buffer_range(&b.bind_buffers[29], 0..bytes, SUBMIT_TIMEOUT)?;
+            b.ctx.read_buffer_range(&b.bind_buffers[29], 0..result_bytes, SUBMIT_TIMEOUT)?;
         Ok(results
             .iter()
             .map(|r| DeviceGatherRay {

@@ -412,6 +412,13 @@ pub struct DeviceGatherRay {
     pub rays: u32,
 }
 
+/// A record a phase of [`IrradianceCache::build_on_device`] is gathering.
+struct PendingRecord<'v> {
+    pixel: (u32, u32),
+    vertex: &'v DeviceVertex,
+    gather: RecordGather,
+}
+
 /// The passes a device runs for [`IrradianceCache::build_on_device`].
 pub trait GatherDevice {
     /// Every pixel's first Lambertian vertex, row after row, as `first_lambertian_vertex`
@@ -476,63 +483,57 @@ impl IrradianceCache {
         let vertices = device.first_vertices()?;
         cache.stats.overture_rays = vertices.iter().map(|v| v.rays as u64).sum();
         for pixels in overture_phases(ctx.width, ctx.height) {
-            // The phase's pixels whose vertex no record covers yet, each with its gather (the
-            // lookups and, below, the reductions run on the host's cores).
+            // The phase's pixels whose vertex no record covers yet, each with its gather, in
+            // pixel order (the lookups and, below, the reductions run on the host's cores).
             let cache_so_far = &cache;
-            let mut pending: Vec<((u32, u32), &DeviceVertex, RecordGather)> = pixels
+            let mut gathering: Vec<PendingRecord> = pixels
                 .par_iter()
                 .filter_map(|&(x, y)| {
-                    let v = vertices[(y * ctx.width + x) as usize].found.as_ref()?;
-                    cache_so_far
-                        .irradiance(v.p, v.frame.z)
-                        .is_none()
-                        .then(|| ((x, y), v, RecordGather::new(ctx.settings)))
+                    let vertex = vertices[(y * ctx.width + x) as usize].found.as_ref()?;
+                    cache_so_far.irradiance(vertex.p, vertex.frame.z).is_none().then(|| PendingRecord {
+                        pixel: (x, y),
+                        vertex,
+                        gather: RecordGather::new(ctx.settings),
+                    })
                 })
                 .collect();
-            // Which records still gather, all at the same round.
-            let mut active = vec![true; pending.len()];
+            let mut done = Vec::with_capacity(gathering.len());
+            // Every record still gathering is at the same round.
             let mut round = 0;
-            while active.contains(&true) {
-                let pixel_indices: Vec<u32> = pending
-                    .iter()
-                    .zip(&active)
-                    .filter(|(_, &a)| a)
-                    .map(|(((x, y), _, _), _)| y * ctx.width + x)
-                    .collect();
+            while !gathering.is_empty() {
+                let pixel_indices: Vec<u32> =
+                    gathering.iter().map(|r| r.pixel.1 * ctx.width + r.pixel.0).collect();
                 let results = device.gather_round(&pixel_indices, round)?;
                 cache.stats.gather_rays += results.iter().map(|r| r.rays as u64).sum::<u64>();
-                // Record i's rays are those of its slot, its rank among the active records.
-                let slots: Vec<Option<usize>> = active
-                    .iter()
-                    .scan(0, |next, &a| {
-                        let slot = a.then_some(*next);
-                        *next += a as usize;
-                        Some(slot)
-                    })
-                    .collect();
-                active = pending
+                let count = gathering[0].gather.count();
+                let again: Vec<bool> = gathering
                     .par_iter_mut()
-                    .zip(slots.par_iter())
-                    .map(|(&mut ((x, y), _, ref mut gather), slot)| {
-                        let Some(slot) = *slot else { return false };
-                        let count = gather.count();
-                        let rays = &results[slot * count as usize..(slot + 1) * count as usize];
+                    .zip(results.par_chunks(count as usize))
+                    .zip(pixel_indices.par_iter())
+                    .map(|((record, rays), &pixel_index)| {
+                        let gather = &mut record.gather;
                         gather.begin_round();
                         for (stratum, r) in (0..count).zip(rays) {
-                            let u =
-                                gather_sampler(y * ctx.width + x, round, stratum, count, ctx.seed).next_2d();
+                            let u = gather_sampler(pixel_index, round, stratum, count, ctx.seed).next_2d();
                             // A ray the device did not trace (below the surface) reports no
-                            // light and no hit: adding it changes no sum, as the CPU's skipping
-                            // it.
+                            // light and no hit: adding it changes no sum, as the CPU's
+                            // skipping it.
                             gather.add(stratum, gather.direction(stratum, u), r.radiance, r.distance);
                         }
                         gather.end_round()
                     })
                     .collect();
+                let (still, finished): (Vec<_>, Vec<_>) =
+                    gathering.into_iter().zip(again).partition(|(_, a)| *a);
+                gathering = still.into_iter().map(|(r, _)| r).collect();
+                done.extend(finished.into_iter().map(|(r, _)| r));
                 round += 1;
             }
-            for (pixel, v, gather) in pending {
-                cache.add(gather.record(ctx, v.p, &v.frame, v.footprint, pixel));
+            // In the phase's order, row by row, as the CPU adds them (neighbour clamping
+            // depends on it).
+            done.sort_by_key(|r| (r.pixel.1, r.pixel.0));
+            for PendingRecord { pixel, vertex, gather } in done {
+                cache.add(gather.record(ctx, vertex.p, &vertex.frame, vertex.footprint, pixel));
             }
         }
         cache.finish_stats(start);
