@@ -35,13 +35,12 @@ const BAND_SAMPLES: u32 = 8;
 /// condition had failed. A group that runs longer silently stops: an 8 × 8 glass scene lost
 /// up to 65% of 384 samples per pixel per dispatch, about 12 ms of work per group on this
 /// VM, and a bidirectional path too long for the budget ends early (why same-seed BDPT parts
-/// from the CPU's beyond about 35 bounces). A quarter of that time keeps path-traced
-/// dispatches inside the budget; only small images come near it (a 32² image's time-sized
-/// dispatch gives each group a few milliseconds). `tests/gpu` checks every sample lands on an
-/// 8 × 8 image. A twelfth of that time, not a quarter: time is only a proxy for the loop
-/// count, and with a quarter the 8 × 8 glass scene still lost 30–60% of its samples in one
-/// fresh-clone run of CI's tests on this VM (2026-12-06; earlier runs passed), a dispatch
-/// far longer than its measured rate predicted.
+/// from the CPU's beyond about 35 bounces). A twelfth of that time keeps path-traced
+/// dispatches inside the budget: time is only a proxy for the loop count, and with a quarter
+/// (3 ms) the 8 × 8 glass scene once lost 30–60% of its samples in a dispatch far longer
+/// than its measured rate predicted. Only small images come near the budget (a 32² image's
+/// time-sized dispatch gives each group a few milliseconds); `tests/gpu` checks every sample
+/// lands on an 8 × 8 image.
 const SOFTWARE_GPU_GROUP_SECONDS: f64 = 0.001;
 /// Lavapipe's SIMD width in f32 lanes (256-bit AVX2): one group's invocations run together.
 const SOFTWARE_GPU_LANES: f64 = 8.0;
