@@ -40,8 +40,22 @@ const BAND_SAMPLES: u32 = 8;
 /// (3 ms) the 8 × 8 glass scene once lost 30–60% of its samples in a dispatch far longer
 /// than its measured rate predicted. Only small images come near the budget (a 32² image's
 /// time-sized dispatch gives each group a few milliseconds); `tests/gpu` checks every sample
-/// lands on an 8 × 8 image.
+/// lands on an 8 × 8 image, and [`SOFTWARE_GPU_RETRY_SHRINK`] catches a call that did not.
 const SOFTWARE_GPU_GROUP_SECONDS: f64 = 0.001;
+/// Time is only a proxy for lavapipe's loop count, so on a software GPU each call of
+/// [`Backend::render`] is checked: the film's per-pixel counts must have grown by exactly
+/// the samples asked for. A pixel short of them means its group of lanes met the loop limit;
+/// the call's samples are then taken again from the film and ray counts as they were, with
+/// each group given this many times less time (`GpuBackend::software_group_seconds`). The
+/// check misses only a group whose every lane was on the call's last sample when the limit
+/// struck (each lane then finishes that sample with its loops cut short, and its count is
+/// whole); a lane of the group short of its samples gives the others away. It covers the
+/// path-tracing kernel's calls (path tracing, the photon map's final gather, the irradiance
+/// cache), whose dispatches carry many samples per pixel; BDPT's and Metropolis's dispatches
+/// are bounded by their own rules.
+const SOFTWARE_GPU_RETRY_SHRINK: f64 = 4.0;
+/// Tries of one call before a software GPU that still cuts samples short is an error.
+const SOFTWARE_GPU_TRIES: u32 = 4;
 /// Lavapipe's SIMD width in f32 lanes (256-bit AVX2): one group's invocations run together.
 const SOFTWARE_GPU_LANES: f64 = 8.0;
 /// Waiting longer than this for one submit means the GPU hung; report it rather than hang.
@@ -112,6 +126,18 @@ pub struct GpuBackend {
     /// camera set later keeps the light tracer (the backend holds no triangles to decide
     /// it again). Bidirectional path tracing skips its t = 1 joins by the same decision.
     camera_sees_only_delta: bool,
+    /// On a software GPU, copies of `film` and `ray_counts` taken before each call of
+    /// [`Backend::render`], to take its samples again if the device cut some short
+    /// ([`SOFTWARE_GPU_RETRY_SHRINK`]); `None` on a hardware GPU.
+    software_snapshot: Option<(wgpu::Buffer, wgpu::Buffer)>,
+    /// The per-pixel sample budgets as last set (adaptive sampling), in pixel order: how
+    /// many samples each pixel should hold after a call.
+    pixel_budgets: Option<Vec<u32>>,
+    /// The longest a group of lanes may run in one dispatch on a software GPU: starts at
+    /// [`SOFTWARE_GPU_GROUP_SECONDS`], shrunk by every call taken again.
+    software_group_seconds: f64,
+    /// Calls of [`Backend::render`] taken again because the device cut samples short.
+    software_retries: u32,
     /// Bidirectional path tracing's per-pixel sums and truncation count (`bdpt_state` in
     /// shaders/bdpt.wgsl; one unused pixel for the path tracer).
     bdpt_state: wgpu::Buffer,
@@ -605,6 +631,14 @@ impl GpuBackend {
             ]);
         }
         let bind_group = Self::make_bind_group(device, &kernel, &bind_buffers);
+        let software_snapshot = if ctx.is_hardware() {
+            None
+        } else {
+            Some((
+                zeroed("film snapshot", pixels * std::mem::size_of::<FilmPixel>() as u64)?,
+                zeroed("ray-count snapshot", pixels * 4)?,
+            ))
+        };
         ctx.check()?;
         Ok(GpuBackend {
             kernel,
@@ -627,6 +661,10 @@ impl GpuBackend {
             seconds_per_sample_bound: None,
             upload_seconds: start.elapsed().as_secs_f64(),
             caustics,
+            software_snapshot,
+            pixel_budgets: None,
+            software_group_seconds: SOFTWARE_GPU_GROUP_SECONDS,
+            software_retries: 0,
             camera_sees_only_delta: (caustics_kernel.is_some() || splats)
                 && crate::integrator::delta_view::camera_sees_only_delta_surfaces(scene, &scene.camera),
             bdpt_state,
@@ -1190,7 +1228,7 @@ impl GpuBackend {
             Some(rate) if !self.ctx.is_hardware() => {
                 let threads = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
                 let per_sample = rate * threads * SOFTWARE_GPU_LANES;
-                ((SOFTWARE_GPU_GROUP_SECONDS / per_sample.max(1e-12)) as u32).max(1)
+                ((self.software_group_seconds / per_sample.max(1e-12)) as u32).max(1)
             }
             _ => u32::MAX,
         }
@@ -1436,34 +1474,10 @@ impl GpuBackend {
         self.samples_since_fold = 0;
         Ok(())
     }
-}
 
-impl Backend for GpuBackend {
-    fn name(&self) -> String {
-        let caustics = if self.light_traces_caustics() { ", caustics light-traced" } else { "" };
-        format!("gpu ({}{caustics})", self.ctx.name())
-    }
-
-    /// Adds samples in submits of about [`TARGET_SUBMIT_SECONDS`]: several samples per pixel
-    /// per dispatch on a fast device, bands of rows on a slow one. Up to [`MAX_IN_FLIGHT`]
-    /// submits are queued so the device never idles while the host waits for a completion
-    /// (on lavapipe each wake-up costs tens of milliseconds). Each sample's random stream
-    /// depends only on (pixel, sample index, seed), so the image does not depend on how the
-    /// work was split. With light-traced caustics each sample index is one dispatch, after
-    /// the light tracer's pass for that index.
-    fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
-        self.ensure_irradiance_cache()?;
-        self.fold_rays_before(self.ray_bound_per_sample() * samples as u64)?;
-        if self.settings.integrator == Integrator::Bdpt {
-            return self.render_bdpt(sample_offset, samples);
-        }
-        if self.settings.integrator == Integrator::Sppm {
-            return self.render_sppm(sample_offset, samples);
-        }
-        if self.settings.integrator == Integrator::Mlt {
-            return self.render_mlt(sample_offset, samples);
-        }
-        self.build_photon_maps()?;
+    /// The path-tracing kernel's samples `sample_offset .. sample_offset + samples` for every
+    /// pixel, in submits sized as [`Backend::render`] says.
+    fn render_samples(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
         let (w, h) = (self.settings.width, self.settings.height);
         // (submission, pixel-samples of work, time submitted)
         let mut in_flight: std::collections::VecDeque<(wgpu::SubmissionIndex, f64, Instant)> =
@@ -1546,6 +1560,102 @@ impl Backend for GpuBackend {
             self.wait(index)?;
         }
         Ok(())
+    }
+
+    /// Copies the film and the ray counts into the software GPU's snapshot (`save`), or
+    /// back from it.
+    fn copy_film_and_ray_counts(&self, save: bool) {
+        let Some((film_copy, rays_copy)) = &self.software_snapshot else { return };
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("snapshot") });
+        for (live, copy) in [(&self.film, film_copy), (&self.ray_counts, rays_copy)] {
+            let (from, to) = if save { (live, copy) } else { (copy, live) };
+            encoder.copy_buffer_to_buffer(from, 0, to, 0, None);
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// How many pixels gained fewer samples than sample indices `sample_offset ..
+    /// sample_offset + samples` give them (all of those, or those below the pixel's budget
+    /// under adaptive sampling), the film compared with its snapshot. Non-finite samples
+    /// count: they were taken, and rejected.
+    fn pixels_short_of(&self, sample_offset: u32, samples: u32) -> Result<usize> {
+        let Some((film_copy, _)) = &self.software_snapshot else { return Ok(0) };
+        let after = self.read_back::<FilmPixel>(&self.film)?;
+        let before = self.read_back::<FilmPixel>(film_copy)?;
+        let taken = |p: &FilmPixel| p.count as u64 + p.rejected as u64;
+        let budget = |i: usize| self.pixel_budgets.as_ref().map_or(u32::MAX, |b| b[i]);
+        let expected = |i: usize| {
+            let b = budget(i);
+            (sample_offset.saturating_add(samples).min(b) - sample_offset.min(b)) as u64
+        };
+        Ok((0..after.len()).filter(|&i| taken(&after[i]) < taken(&before[i]) + expected(i)).count())
+    }
+
+    /// Calls of [`Backend::render`] taken again because a software GPU cut samples short
+    /// ([`SOFTWARE_GPU_RETRY_SHRINK`]).
+    pub fn software_retries(&self) -> u32 {
+        self.software_retries
+    }
+
+    /// Sets how long one group of lanes may run in a dispatch on a software GPU (default
+    /// [`SOFTWARE_GPU_GROUP_SECONDS`]): a test sets it far past lavapipe's loop limit to see
+    /// the lost samples taken again.
+    pub fn set_software_group_seconds(&mut self, seconds: f64) {
+        self.software_group_seconds = seconds;
+    }
+}
+
+impl Backend for GpuBackend {
+    fn name(&self) -> String {
+        let caustics = if self.light_traces_caustics() { ", caustics light-traced" } else { "" };
+        format!("gpu ({}{caustics})", self.ctx.name())
+    }
+
+    /// Adds samples in submits of about [`TARGET_SUBMIT_SECONDS`]: several samples per pixel
+    /// per dispatch on a fast device, bands of rows on a slow one. Up to [`MAX_IN_FLIGHT`]
+    /// submits are queued so the device never idles while the host waits for a completion
+    /// (on lavapipe each wake-up costs tens of milliseconds). Each sample's random stream
+    /// depends only on (pixel, sample index, seed), so the image does not depend on how the
+    /// work was split. With light-traced caustics each sample index is one dispatch, after
+    /// the light tracer's pass for that index.
+    fn render(&mut self, sample_offset: u32, samples: u32) -> Result<()> {
+        self.ensure_irradiance_cache()?;
+        self.fold_rays_before(self.ray_bound_per_sample() * samples as u64)?;
+        if self.settings.integrator == Integrator::Bdpt {
+            return self.render_bdpt(sample_offset, samples);
+        }
+        if self.settings.integrator == Integrator::Sppm {
+            return self.render_sppm(sample_offset, samples);
+        }
+        if self.settings.integrator == Integrator::Mlt {
+            return self.render_mlt(sample_offset, samples);
+        }
+        self.build_photon_maps()?;
+        if self.software_snapshot.is_none() {
+            return self.render_samples(sample_offset, samples);
+        }
+        for _ in 0..SOFTWARE_GPU_TRIES {
+            self.copy_film_and_ray_counts(true);
+            self.render_samples(sample_offset, samples)?;
+            let short = self.pixels_short_of(sample_offset, samples)?;
+            if short == 0 {
+                return Ok(());
+            }
+            // A group met lavapipe's loop limit: its pixels lost samples, and a lane on its
+            // last sample may have finished it with a traversal cut short. Every sample of
+            // the call is taken again, from the film as it was.
+            self.copy_film_and_ray_counts(false);
+            self.software_group_seconds /= SOFTWARE_GPU_RETRY_SHRINK;
+            self.software_retries += 1;
+        }
+        Err(Error::Gpu(format!(
+            "the software GPU cut samples {sample_offset}..{} short in {SOFTWARE_GPU_TRIES} tries, down to {:.3} ms per group of lanes (lavapipe's loop limit)",
+            sample_offset + samples,
+            self.software_group_seconds * 1e3
+        )))
     }
 
     fn film(&mut self) -> Result<Film> {
@@ -1680,6 +1790,7 @@ impl Backend for GpuBackend {
 
     fn set_sample_budgets(&mut self, budgets: Option<&[u32]>) -> Result<()> {
         let pixels = self.settings.width as usize * self.settings.height as usize;
+        self.pixel_budgets = budgets.map(<[u32]>::to_vec);
         self.sorted_budgets = budgets.map(|b| {
             let mut sorted = b.to_vec();
             sorted.sort_unstable();

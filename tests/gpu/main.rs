@@ -592,3 +592,30 @@ fn every_sample_lands_on_a_small_image() {
         assert!(short.is_empty(), "{scene}: pixels short of 1,024 samples (pixel, count): {short:?}");
     }
 }
+
+/// The net under the time budget: dispatches given 100 ms per group of lanes, eight times
+/// lavapipe's loop limit (about 12 ms of work), lose samples; the backend sees the
+/// film's counts fall short, takes the call's samples again with less time per group, and
+/// ends with the image a render kept inside the budget makes, bit for bit.
+#[test]
+fn samples_a_device_cuts_short_are_taken_again() {
+    let Some(gpu) = common::gpu() else { return };
+    if gpu.is_hardware() {
+        eprintln!(
+            "SKIPPED samples_a_device_cuts_short_are_taken_again: a hardware GPU has no loop limit to meet"
+        );
+        return;
+    }
+    let flat = common::flat_scene(&common::scene("cornell-spheres.gltf"), 8, 8);
+    let settings = RenderSettings { splits: 1, ..settings(8, 1024, 3) };
+    let mut careful = GpuBackend::new(gpu.clone(), &flat, &settings).unwrap();
+    let expected = common::render(&mut careful, 1024);
+    let mut reckless = GpuBackend::new(gpu.clone(), &flat, &settings).unwrap();
+    reckless.set_software_group_seconds(0.1);
+    let film = common::render(&mut reckless, 1024);
+    assert!(reckless.software_retries() > 0, "100 ms per group never met the loop limit");
+    let short = film.pixels.iter().filter(|p| p.count + p.rejected != 1024).count();
+    assert_eq!(short, 0, "{short} pixel(s) short of 1,024 samples after the retries");
+    // Each pixel adds its samples in index order however the work was split.
+    assert!(film.pixels == expected.pixels, "the retried render differs from one inside the budget");
+}
