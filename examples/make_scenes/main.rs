@@ -257,6 +257,72 @@ fn slit_room(path: &Path) {
     g.write(path, "A room lit only through a 2 cm slit in the lid of a closed box that holds the lamp");
 }
 
+/// Two rooms joined by a door left ajar (issue 45's Metropolis goal; Veach 1997, §11.5,
+/// fig. 11.4): the camera's room, 5 × 2.6 × 4 m, is lit only through the door to the room
+/// behind it, open 3° into that room. The door reaches from floor to ceiling, so the only
+/// way through is the wedge, 5 cm at its widest, between the door's edge and its frame. The
+/// lamp, a square on that room's ceiling to the left of the door, cannot see through it
+/// (the door's back hides it), so all the light the camera sees has bounced off that room's
+/// right side, passed the wedge, and come in sideways along the wall. A path from either end
+/// rarely finds the wedge; a Markov chain that found one explores its neighbours. All
+/// Lambertian, so that peers render it too.
+fn door_ajar(path: &Path) {
+    let mut g = Gltf::default();
+    let [white, warm, floor_m] = room_materials(&mut g);
+    let lamp = g.material(emitter("lamp", [20000.0, 17000.0, 12500.0], 0.0));
+    // One shell over both rooms (z from −4 to 4), the dividing wall at z = 0 with a door
+    // opening from x = 0.3 to 1.2, floor to ceiling.
+    let (x0, x1, y1, z0, z1) = (-2.5, 2.5, 2.6, -4.0, 4.0);
+    let (dx0, dx1) = (0.3, 1.2);
+    let near = [0.0, 1.3, 2.0];
+    let far = [0.0, 1.3, -2.0];
+    let mut walls = Mesh::default();
+    for (za, zb, inside) in [(0.0, z1, near), (z0, 0.0, far)] {
+        walls.quad([[x0, y1, za], [x1, y1, za], [x1, y1, zb], [x0, y1, zb]], inside);
+        walls.quad([[x1, 0.0, za], [x1, 0.0, zb], [x1, y1, zb], [x1, y1, za]], inside);
+    }
+    walls.quad([[x0, 0.0, z0], [x1, 0.0, z0], [x1, y1, z0], [x0, y1, z0]], far);
+    // The dividing wall: one surface (white on both sides), around the opening.
+    walls.quad([[x0, 0.0, 0.0], [dx0, 0.0, 0.0], [dx0, y1, 0.0], [x0, y1, 0.0]], near);
+    walls.quad([[dx1, 0.0, 0.0], [x1, 0.0, 0.0], [x1, y1, 0.0], [dx1, y1, 0.0]], near);
+    g.mesh("walls and ceilings", &walls, white);
+    let mut left = Mesh::default();
+    for (za, zb, inside) in [(0.0, z1, near), (z0, 0.0, far)] {
+        left.quad([[x0, 0.0, za], [x0, 0.0, zb], [x0, y1, zb], [x0, y1, za]], inside);
+    }
+    left.quad([[x0, 0.0, z1], [x1, 0.0, z1], [x1, y1, z1], [x0, y1, z1]], near);
+    g.mesh("warm walls", &left, warm);
+    let mut floor = Mesh::default();
+    floor.quad([[x0, 0.0, z0], [x1, 0.0, z0], [x1, 0.0, z1], [x0, 0.0, z1]], [0.0, 1.0, 0.0]);
+    g.mesh("floor", &floor, floor_m);
+    // The door: one surface, hinged at x = 0.3 and swung 3° into the far room (−z).
+    let angle = 3f64.to_radians();
+    let (lx, lz) = (dx0 + (dx1 - dx0) * angle.cos(), -(dx1 - dx0) * angle.sin());
+    let mut door = Mesh::default();
+    door.quad([[dx0, 0.0, 0.0], [lx, 0.0, lz], [lx, y1, lz], [dx0, y1, 0.0]], [0.5, 1.0, 1.0]);
+    g.mesh("door", &door, white);
+    // The lamp: 0.5 m square on the far room's ceiling, left of the door, facing down.
+    let (cx, cz, h) = (-1.4, -2.0, 0.25);
+    let mut bulb = Mesh::default();
+    let y = y1 - 0.001;
+    bulb.quad(
+        [[cx - h, y, cz - h], [cx + h, y, cz - h], [cx + h, y, cz + h], [cx - h, y, cz + h]],
+        [cx, 0.0, cz],
+    );
+    g.mesh("lamp", &bulb, lamp);
+    // The camera in the near room's back right corner, looking at the door's wall and the
+    // floor to its left, where the light comes in.
+    let (eye, target) = ([2.1, 1.5, 3.7], [-0.6, 0.7, 0.3]);
+    let d = sub(target, eye);
+    let (yaw, pitch) = ((-d[0]).atan2(-d[2]), d[1].atan2((d[0] * d[0] + d[2] * d[2]).sqrt()));
+    let (s1, c1, s2, c2) = ((yaw / 2.0).sin(), (yaw / 2.0).cos(), (pitch / 2.0).sin(), (pitch / 2.0).cos());
+    g.perspective_camera("camera", 65f64.to_radians(), eye, [c1 * s2, c2 * s1, -s1 * s2, c1 * c2]);
+    g.write(
+        path,
+        "Two rooms joined by a door ajar: the camera's room lit only through the 5 cm gap at the door's edge",
+    );
+}
+
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     std::fs::create_dir_all(dir.join("hard")).unwrap();
@@ -306,6 +372,9 @@ fn main() {
 
     lamp_shade_room(&dir.join("lamp-shade-room.gltf"));
     slit_room(&dir.join("slit-room.gltf"));
+    // A benchmark scene, not a bundled one: the path tracer takes hours to converge on it,
+    // which every test that walks scenes/ would pay for.
+    door_ajar(&dir.join("../bench/scenes/door-ajar.gltf"));
     furnace(&dir.join("furnace-0.5.gltf"), 0.5);
     furnace(&dir.join("furnace-0.9.gltf"), 0.9);
 
