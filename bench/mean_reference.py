@@ -14,6 +14,12 @@ The mean is written with that figure as `pathlight.predictedRelMSE`, which
 `pathlight bench --peer` reports next to the errors it compares, and with the variance
 channels of the two halved twice (the variance of a mean of two).
 
+`--downsample K` averages each K × K block of pixels of both renders first: pathlight's
+pixel filter is a box (each camera sample lands uniformly in its pixel, and Metropolis's
+splats by the point they hit), so a block's mean has the expectation of one pixel of a
+render K times smaller, with a K²-th of the noise. One long render so gives the references
+of several image sizes.
+
 `--check` compares the reference with another renderer's converged image that carries its
 own variance of the mean (Mitsuba's batches, `mitsuba_peer.py --converged`): the relMSE
 between them less both noises is their systematic difference.
@@ -39,12 +45,23 @@ def load(mi, path):
     return data, bitmap.metadata()
 
 
+def downsample(image, k, path):
+    """Each k x k block's mean; the variance channels become the variance of that mean."""
+    h, w, c = image.shape
+    if h % k or w % k:
+        sys.exit(f"mean_reference.py: {path} is {w}x{h}, not a multiple of --downsample {k}")
+    blocks = image.reshape(h // k, k, w // k, k, c).mean(axis=(1, 3))
+    blocks[..., 3:] /= k * k
+    return blocks
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("a")
     p.add_argument("b")
     p.add_argument("out")
     p.add_argument("--check", action="append", default=[], help="a peer's converged EXR with variance")
+    p.add_argument("--downsample", type=int, default=1, help="average K x K pixel blocks first")
     args = p.parse_args()
 
     import mitsuba as mi
@@ -56,6 +73,8 @@ def main():
         sys.exit(f"mean_reference.py: {args.a} is {a.shape[1]}x{a.shape[0]}, {args.b} {b.shape[1]}x{b.shape[0]}")
     if "pathlight.seed" in meta_a and "pathlight.seed" in meta_b and meta_a["pathlight.seed"] == meta_b["pathlight.seed"]:
         sys.exit(f"mean_reference.py: both renders have seed {meta_a['pathlight.seed']}: they are not independent")
+    if args.downsample > 1:
+        a, b = downsample(a, args.downsample, args.a), downsample(b, args.downsample, args.b)
     mean = 0.5 * (a[..., :3] + b[..., :3])
     weight = 1.0 / (mean**2 + EPSILON)
     one = float((((a[..., :3] - b[..., :3]) ** 2) * weight).mean()) / 2.0
