@@ -148,7 +148,7 @@ pub struct SceneArgs {
     #[arg(long, value_name = "N")]
     pub chains: Option<u32>,
     /// With --integrator mlt: the probability that a mutation is a large step, an
-    /// independent sample (default 0.3).
+    /// independent sample (default 0.1).
     #[arg(long, value_name = "P")]
     pub large_step: Option<f32>,
     /// Camera index in the file (default: the first camera, or one framing the scene).
