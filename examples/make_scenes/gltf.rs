@@ -376,3 +376,11 @@ pub(crate) fn glass(name: &str, roughness: f64, attenuation: Option<([f64; 3], f
 pub(crate) fn rot_y(angle: f64) -> [f64; 4] {
     [0.0, (angle / 2.0).sin(), 0.0, (angle / 2.0).cos()]
 }
+
+/// glTF rotation (x, y, z, w) turning a camera by `pitch` about +X, then `yaw` about +Y:
+/// q = yaw(Y) · pitch(X).
+pub(crate) fn rot_yaw_pitch(yaw: f64, pitch: f64) -> [f64; 4] {
+    let (sp, cp) = (pitch / 2.0).sin_cos();
+    let (sy, cy) = (yaw / 2.0).sin_cos();
+    [cy * sp, sy * cp, -sy * sp, cy * cp]
+}

@@ -40,13 +40,7 @@ pub(crate) fn sealed_room(path: &Path) {
         [0.0, 0.0, 0.0, 1.0],
     );
     // Inside, looking up at a corner of the ceiling (where shading normals tilt most).
-    let pitch = 0.35f64;
-    let yaw = 0.6f64;
-    let (sp, cp) = (pitch / 2.0).sin_cos();
-    let (sy, cy) = (yaw / 2.0).sin_cos();
-    // q = yaw(Y) * pitch(X)
-    let q = [cy * sp, sy * cp, -sy * sp, cy * cp];
-    g.perspective_camera("inside", 70f64.to_radians(), [0.0, -0.2, 0.3], q);
+    g.perspective_camera("inside", 70f64.to_radians(), [0.0, -0.2, 0.3], rot_yaw_pitch(0.6, 0.35));
     g.write(
         path,
         "Sealed room: the camera inside a closed cube lit only from outside; every pixel is exactly 0",

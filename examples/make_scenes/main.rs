@@ -315,8 +315,7 @@ fn door_ajar(path: &Path) {
     let (eye, target) = ([2.1, 1.5, 3.7], [-0.6, 0.7, 0.3]);
     let d = sub(target, eye);
     let (yaw, pitch) = ((-d[0]).atan2(-d[2]), d[1].atan2((d[0] * d[0] + d[2] * d[2]).sqrt()));
-    let (s1, c1, s2, c2) = ((yaw / 2.0).sin(), (yaw / 2.0).cos(), (pitch / 2.0).sin(), (pitch / 2.0).cos());
-    g.perspective_camera("camera", 65f64.to_radians(), eye, [c1 * s2, c2 * s1, -s1 * s2, c1 * c2]);
+    g.perspective_camera("camera", 65f64.to_radians(), eye, rot_yaw_pitch(yaw, pitch));
     g.write(
         path,
         "Two rooms joined by a door ajar: the camera's room lit only through the 5 cm gap at the door's edge",
