@@ -60,12 +60,13 @@ pub struct RenderArgs {
     #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "HOST:PORT")]
     tev: Option<String>,
     /// Adaptive sampling: each pixel gets the samples it needs to reach
-    /// --adaptive-threshold, at least --adaptive-min-spp and at most --spp, decided from a
-    /// pilot render with another seed, so that no pixel's mean is biased by its own stopping
-    /// rule. The EXR records each pixel's count (channel sampleCount).
+    /// --adaptive-threshold, at least --adaptive-min-spp and at most --spp, decided after a
+    /// pilot of --adaptive-min-spp samples from each pixel's neighbours' samples, never its
+    /// own, so that no pixel's mean is biased by its own stopping rule (the pilot's samples
+    /// are kept). The EXR records each pixel's count (channel sampleCount).
     #[arg(long)]
     adaptive: bool,
-    /// The relative standard error of a pixel's mean at which it stops (0.02: 2%).
+    /// The relative standard error of a pixel of the image's mean noise (0.02: 2%).
     #[arg(long, default_value_t = pathlight::sampling::adaptive::DEFAULT_ADAPTIVE_THRESHOLD, requires = "adaptive")]
     adaptive_threshold: f32,
     /// Samples per pixel of the adaptive pilot, and the fewest any pixel gets.

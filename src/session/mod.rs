@@ -123,7 +123,7 @@ pub struct SessionOptions {
     /// What the outputs carry beside the film: AOVs and a denoised image.
     pub outputs: OutputOptions,
     /// Adaptive sampling (`--adaptive`): each pixel's sample count, at most `spp`, decided
-    /// from an independent pilot render (`crate::sampling::adaptive`).
+    /// after a pilot from its neighbours' samples, not its own (`crate::sampling::adaptive`).
     pub adaptive: Option<AdaptiveSettings>,
     /// Make the AOV pass available ([`Session::aovs`], [`Session::denoised`]) even where the
     /// outputs write none: the viewer's denoised view (the GPU backend then holds 48 bytes per
@@ -517,23 +517,19 @@ impl Session {
         stop: &AtomicBool,
         mut checkpoint: impl FnMut(&mut dyn Backend, u32) -> Result<bool>,
     ) -> Result<RenderStats> {
-        let before = self.seconds;
-        let start = std::time::Instant::now();
-        // Adaptive sampling: the pilot decides each pixel's count before the first pass, and
-        // the render ends where the most-sampled pixel does.
+        // Adaptive sampling: the pilot decides each pixel's count before the first pass
+        // after it (its time is counted in `decide_sample_counts`), and the render ends
+        // where the most-sampled pixel does.
         let mut spp = spp;
         if self.adaptive.is_some() {
-            // The pilot's time is the render's.
-            let decided = self.decide_sample_counts(stop);
-            if !matches!(decided, Ok(true)) {
-                self.seconds = before + start.elapsed().as_secs_f64();
-            }
-            if !decided? {
+            if !self.decide_sample_counts(stop)? {
                 return Ok(RenderStats { spp: self.spp_done, seconds: self.seconds, interrupted: true });
             }
             let most = self.budgets.as_ref().and_then(|b| b.iter().copied().max()).unwrap_or(spp);
             spp = spp.min(most);
         }
+        let before = self.seconds;
+        let start = std::time::Instant::now();
         // Passes completed, kept even when a later pass fails (a GPU fault or timeout): the
         // film still holds them, and the caller may write them out.
         let mut completed = self.spp_done;
@@ -558,9 +554,10 @@ impl Session {
             return Ok(true);
         }
         let t = std::time::Instant::now();
-        let pilot = self.pilot(&adaptive, stop)?;
+        let pilot = self.pilot(&adaptive, stop);
         self.pilot_seconds = t.elapsed().as_secs_f64();
-        match pilot {
+        self.seconds += self.pilot_seconds;
+        match pilot? {
             Some(budgets) => {
                 self.backend.set_sample_budgets(Some(&budgets))?;
                 self.budgets = Some(budgets);
@@ -575,23 +572,31 @@ impl Session {
         self.pilot_seconds
     }
 
-    /// Adaptive sampling's pilot (`crate::sampling::adaptive`): `min_spp` samples per pixel
-    /// of a render with the pilot's seed on a backend of its own, and the sample counts they
-    /// give; `None` when `stop` ended it first.
+    /// Adaptive sampling's pilot (`crate::sampling::adaptive`): the render's own first
+    /// `min_spp` samples of every pixel (kept: each pixel's count is decided from its
+    /// neighbours' samples, not its own), and the counts they give; `None` when `stop`
+    /// ended it first.
     fn pilot(&mut self, adaptive: &AdaptiveSettings, stop: &AtomicBool) -> Result<Option<Vec<u32>>> {
-        let settings = RenderSettings {
-            seed: crate::sampling::adaptive::pilot_seed(self.settings.seed),
-            aovs: false,
-            adaptive: false,
-            ..self.settings.clone()
-        };
-        let (mut backend, _, _) = make_backend(&self.flat, &settings, self.gpu.as_ref())?;
-        backend.set_camera(&self.camera)?;
-        let stats = crate::render::render_progressive(backend.as_mut(), adaptive.min_spp, stop, |_| {})?;
-        if stats.interrupted {
-            return Ok(None);
+        if self.spp_done < adaptive.min_spp {
+            // Every pixel takes the pilot's samples, whatever counts an earlier camera had.
+            self.backend.set_sample_budgets(None)?;
+            let mut completed = self.spp_done;
+            let result = render_progressive_from(
+                self.backend.as_mut(),
+                self.spp_done,
+                adaptive.min_spp,
+                stop,
+                |_, done, _| {
+                    completed = done;
+                    Ok(false)
+                },
+            );
+            self.spp_done = completed;
+            if result?.interrupted {
+                return Ok(None);
+            }
         }
-        let film = backend.film()?;
+        let film = self.backend.film()?;
         Ok(Some(crate::sampling::adaptive::sample_budgets(&film, adaptive, self.settings.spp)))
     }
 
@@ -731,10 +736,8 @@ impl Session {
                     b.iter().map(|&n| n.min(self.spp_done) as f64).sum::<f64>() / b.len().max(1) as f64
                 });
                 format!(
-                    "threshold {} (relative standard error per pixel), pilot of {} spp with seed {}, mean {mean:.1} spp per pixel; sample counts per pixel in channel sampleCount",
-                    a.threshold,
-                    a.min_spp,
-                    crate::sampling::adaptive::pilot_seed(self.settings.seed)
+                    "threshold {} (relative standard error per pixel), pilot of {} spp (the render's first samples of every pixel, kept; each pixel's count decided from its neighbours' pilot samples, not its own), mean {mean:.1} spp per pixel; sample counts per pixel in channel sampleCount",
+                    a.threshold, a.min_spp,
                 )
             }),
         })
