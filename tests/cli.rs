@@ -787,7 +787,7 @@ fn denoising_bad_input_is_a_clear_error() {
         assert!(!out.exists(), "refused before rendering");
     }
     let e = run(&["render", scene.to_str().unwrap(), "-o", out_s, "--adaptive", "--spp", "4"]);
-    assert!(e.contains("--adaptive-min-spp 8 exceeds --spp 4"), "{e}");
+    assert!(e.contains("--adaptive-min-spp 16 exceeds --spp 4"), "{e}");
     let e = run(&["render", scene.to_str().unwrap(), "-o", out_s, "--adaptive-threshold", "0.1"]);
     assert!(e.contains("--adaptive"), "the threshold needs --adaptive: {e}");
     let _ = std::fs::remove_dir_all(&dir);
@@ -808,7 +808,7 @@ fn adaptive_renders_report_their_counts() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
-        stderr.contains("adaptive: pilot of 8 spp") && stderr.contains("of pixels at --spp 128"),
+        stderr.contains("adaptive: pilot of 16 spp") && stderr.contains("of pixels at --spp 128"),
         "{stderr}"
     );
     let image = pathlight::film::read_exr(&exr).unwrap();
