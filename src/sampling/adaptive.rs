@@ -169,8 +169,9 @@ fn budgets_from_variance(
         .map(|p| {
             let (variance, mean) = if leave_own_out {
                 // The largest v around p without p; and the image's mean as it would be
-                // without p: the neighbourhoods p lies in read their largest without it.
-                let own =
+                // without p: the neighbourhoods p lies in (those of the pixels in p's own, the
+                // window being symmetric) read their largest without it.
+                let neighbours =
                     window(p).filter(|&q| q != p).map(|q| v[q] as f64).fold(f64::NEG_INFINITY, f64::max);
                 let (mut s, mut n) = (sum, count as f64);
                 for q in window(p) {
@@ -183,7 +184,7 @@ fn budgets_from_variance(
                         (s, n) = (s + x, n + 1.0);
                     }
                 }
-                (own, if n > 0.0 { s / n } else { f64::NAN })
+                (neighbours, if n > 0.0 { s / n } else { f64::NAN })
             } else {
                 (top[p].0, sum / count.max(1) as f64)
             };
