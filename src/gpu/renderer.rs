@@ -136,6 +136,9 @@ pub struct GpuBackend {
     /// The longest a group of lanes may run in one dispatch on a software GPU: starts at
     /// [`SOFTWARE_GPU_GROUP_SECONDS`], shrunk by every call taken again.
     software_group_seconds: f64,
+    /// Samples per pixel every path-tracing dispatch takes, whatever the rate and the cap
+    /// say, until a call comes back short ([`GpuBackend::force_software_dispatch_samples`]).
+    forced_dispatch_samples: Option<u32>,
     /// Calls of [`Backend::render`] taken again because the device cut samples short.
     software_retries: u32,
     /// Bidirectional path tracing's per-pixel sums and truncation count (`bdpt_state` in
@@ -664,6 +667,7 @@ impl GpuBackend {
             software_snapshot,
             pixel_budgets: None,
             software_group_seconds: SOFTWARE_GPU_GROUP_SECONDS,
+            forced_dispatch_samples: None,
             software_retries: 0,
             camera_sees_only_delta: (caustics_kernel.is_some() || splats)
                 && crate::integrator::delta_view::camera_sees_only_delta_surfaces(scene, &scene.camera),
@@ -1504,7 +1508,10 @@ impl GpuBackend {
                     }
                 }
             };
-            let spp = spp.min(self.software_gpu_sample_cap());
+            let spp = match self.forced_dispatch_samples {
+                Some(forced) => forced.min(remaining),
+                None => spp.min(self.software_gpu_sample_cap()),
+            };
             let spp = if self.light_traces_caustics() {
                 if self.caustic_pass != Some(sample_offset + done) {
                     self.submit_caustic_pass(sample_offset + done, rows);
@@ -1517,49 +1524,64 @@ impl GpuBackend {
             while row < h {
                 let count = rows.min(h - row);
                 let params = self.frame_params(sample_offset + done, spp, row, count);
+                // Timed from before the submit: the submit can return after the device has
+                // run the work (lavapipe with tests side by side on two cores timed a 2-ms
+                // dispatch at 2 µs from its return), and so understated, the rate let the
+                // next call run 128 samples in one dispatch and lose them to the loop limit
+                // four tries in a row.
+                let submitted = Instant::now();
                 let index = self.submit(&self.kernel.render, params);
                 // The pixel-samples this dispatch computes: under adaptive sampling only the
                 // pixels still sampling (counted over the image, shared out by rows), so that
                 // the rate is that of a working pixel and the software-GPU bound holds.
                 let pixels = self.light_paths(sample_offset + done) as f64 * count as f64 / h as f64;
-                in_flight.push_back((index, pixels.max(1.0) * spp as f64, Instant::now()));
+                in_flight.push_back((index, pixels.max(1.0) * spp as f64, submitted));
                 let limit = if self.seconds_per_sample.is_none() { 1 } else { MAX_IN_FLIGHT };
                 while in_flight.len() >= limit {
                     let (index, work, submitted) = in_flight.pop_front().expect("non-empty");
                     self.wait(index)?;
-                    let now = Instant::now();
-                    // The device ran this submit from when it was submitted or when the one
-                    // before it finished, whichever was later.
-                    let began = match last_done {
-                        Some(t) if t > submitted => t,
-                        _ => submitted,
-                    };
-                    let rate = now.duration_since(began).as_secs_f64() / work;
-                    self.seconds_per_sample = Some(match self.seconds_per_sample {
-                        Some(old) => 0.5 * old + 0.5 * rate,
-                        None => rate,
-                    });
-                    let bound = now.duration_since(submitted).as_secs_f64() / work;
-                    // A slower submit raises the bound at once, a faster one lowers it by
-                    // halves: a device shared with other work (tests running side by side on
-                    // one lavapipe) must not let one quick submit cut the bound and the next,
-                    // larger dispatch meet lavapipe's loop limit (the lamp room lost 7% of its
-                    // samples so, once in four runs of tests/gpu beside the cache's test).
-                    self.seconds_per_sample_bound = Some(match self.seconds_per_sample_bound {
-                        Some(old) if bound >= old => bound,
-                        Some(old) => 0.5 * old + 0.5 * bound,
-                        None => bound,
-                    });
-                    last_done = Some(now);
+                    last_done = Some(self.time_submit(work, submitted, last_done));
                 }
                 row += count;
             }
             done += spp;
         }
-        while let Some((index, _, _)) = in_flight.pop_front() {
+        // The submits still queued are timed too: a call done in one dispatch (a cap the
+        // rate allows) must still measure it.
+        while let Some((index, work, submitted)) = in_flight.pop_front() {
             self.wait(index)?;
+            last_done = Some(self.time_submit(work, submitted, last_done));
         }
         Ok(())
+    }
+
+    /// Updates the rates from a path-tracing submit seen done now, `work` pixel-samples
+    /// submitted at `submitted`, the one before it done at `last_done`; returns now.
+    fn time_submit(&mut self, work: f64, submitted: Instant, last_done: Option<Instant>) -> Instant {
+        let now = Instant::now();
+        // The device ran this submit from when it was submitted or when the one before it
+        // finished, whichever was later.
+        let began = match last_done {
+            Some(t) if t > submitted => t,
+            _ => submitted,
+        };
+        let rate = now.duration_since(began).as_secs_f64() / work;
+        self.seconds_per_sample = Some(match self.seconds_per_sample {
+            Some(old) => 0.5 * old + 0.5 * rate,
+            None => rate,
+        });
+        let bound = now.duration_since(submitted).as_secs_f64() / work;
+        // A slower submit raises the bound at once, a faster one lowers it by halves: a
+        // device shared with other work (tests running side by side on one lavapipe) must
+        // not let one quick submit cut the bound and the next, larger dispatch meet
+        // lavapipe's loop limit (the lamp room lost 7% of its samples so, once in four runs
+        // of tests/gpu beside the cache's test).
+        self.seconds_per_sample_bound = Some(match self.seconds_per_sample_bound {
+            Some(old) if bound >= old => bound,
+            Some(old) => 0.5 * old + 0.5 * bound,
+            None => bound,
+        });
+        now
     }
 
     /// Copies the film and the ray counts into the software GPU's snapshot (`save`), or
@@ -1600,11 +1622,14 @@ impl GpuBackend {
         self.software_retries
     }
 
-    /// Sets how long one group of lanes may run in a dispatch on a software GPU (default
-    /// [`SOFTWARE_GPU_GROUP_SECONDS`]): a test sets it far past lavapipe's loop limit to see
-    /// the lost samples taken again.
-    pub fn set_software_group_seconds(&mut self, seconds: f64) {
-        self.software_group_seconds = seconds;
+    /// Makes every path-tracing dispatch take `samples` samples per pixel (or the call's
+    /// remainder), as a device that misjudged its rate would, until a call on a software
+    /// GPU comes back short; its retries are then sized by time again. A test sets it far
+    /// past lavapipe's loop limit to see the lost samples taken again: a size set through
+    /// the time budget depends on the rate measured, which a machine busy with other tests
+    /// inflates until no dispatch meets the limit.
+    pub fn force_software_dispatch_samples(&mut self, samples: u32) {
+        self.forced_dispatch_samples = Some(samples.max(1));
     }
 }
 
@@ -1639,6 +1664,7 @@ impl Backend for GpuBackend {
         }
         for _ in 0..SOFTWARE_GPU_TRIES {
             self.copy_film_and_ray_counts(true);
+            let rates = (self.seconds_per_sample, self.seconds_per_sample_bound);
             self.render_samples(sample_offset, samples)?;
             let short = self.pixels_short_of(sample_offset, samples)?;
             if short == 0 {
@@ -1646,9 +1672,16 @@ impl Backend for GpuBackend {
             }
             // A group met lavapipe's loop limit: its pixels lost samples, and a lane on its
             // last sample may have finished it with a traversal cut short. Every sample of
-            // the call is taken again, from the film as it was.
+            // the call is taken again, from the film as it was. The call's timings are
+            // dropped too: a dispatch whose groups stopped early ran in less time than its
+            // samples take, so its rate understates theirs, and kept, it would raise the
+            // sample cap as fast as the shrink below lowers it (CI once ran out of tries
+            // so, on a machine busy with other tests).
+            self.seconds_per_sample = rates.0;
+            self.seconds_per_sample_bound = rates.1;
             self.copy_film_and_ray_counts(false);
             self.software_group_seconds /= SOFTWARE_GPU_RETRY_SHRINK;
+            self.forced_dispatch_samples = None;
             self.software_retries += 1;
         }
         Err(Error::Gpu(format!(

@@ -593,10 +593,11 @@ fn every_sample_lands_on_a_small_image() {
     }
 }
 
-/// The net under the time budget: dispatches given 100 ms per group of lanes, eight times
-/// lavapipe's loop limit (about 12 ms of work), lose samples; the backend sees the
-/// film's counts fall short, takes the call's samples again with less time per group, and
-/// ends with the image a render kept inside the budget makes, bit for bit.
+/// The net under the time budget: dispatches forced to take up to 512 samples per pixel at
+/// once, several times lavapipe's loop limit (about 12 ms of work per group of lanes, some
+/// 100 samples of this scene), lose samples; the backend sees the film's counts fall
+/// short, takes the call's samples again sized by time, and ends with the image a render
+/// kept inside the budget makes, bit for bit.
 #[test]
 fn samples_a_device_cuts_short_are_taken_again() {
     let Some(gpu) = common::gpu() else { return };
@@ -611,9 +612,9 @@ fn samples_a_device_cuts_short_are_taken_again() {
     let mut careful = GpuBackend::new(gpu.clone(), &flat, &settings).unwrap();
     let expected = common::render(&mut careful, 1024);
     let mut reckless = GpuBackend::new(gpu.clone(), &flat, &settings).unwrap();
-    reckless.set_software_group_seconds(0.1);
+    reckless.force_software_dispatch_samples(1024);
     let film = common::render(&mut reckless, 1024);
-    assert!(reckless.software_retries() > 0, "100 ms per group never met the loop limit");
+    assert!(reckless.software_retries() > 0, "dispatches of 512 samples never met the loop limit");
     let short = film.pixels.iter().filter(|p| p.count + p.rejected != 1024).count();
     assert_eq!(short, 0, "{short} pixel(s) short of 1,024 samples after the retries");
     // Each pixel adds its samples in index order however the work was split.
