@@ -23,8 +23,10 @@
 const SPPM_ALPHA: f32 = 2.0 / 3.0;
 // Twin of PHOTON_STREAM.
 const PHOTON_STREAM: u32 = 0xfffffffeu;
-// Twin of PLANE_TOLERANCE.
+// Twins of PLANE_TOLERANCE, STEP_TOLERANCE and PLANE_POSITION_ERROR (32 f32::EPSILON).
 const PLANE_TOLERANCE: f32 = 0.1;
+const STEP_TOLERANCE: f32 = 1e-3;
+const PLANE_POSITION_ERROR: f32 = 3.814697265625e-6;
 
 // The words of `sppm_grid` before its slots: this pass's photon records (appended by
 // `sppm_trace_photons`), the cell edge (f32 bits), running totals the host reads for
@@ -570,8 +572,14 @@ fn sppm_photon_flux(i: u32, si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32,
     if (!transmits) {
         let n_point = select(-ng, ng, dot(si.wo_world, ng) > 0.0);
         let n_photon = select(-n, n, dot(w, n) > 0.0);
+        let photon_height = dot(d, n_point);
+        let point_height = -dot(d, n_photon);
+        let lower = min(photon_height, point_height);
+        let upper = max(photon_height, point_height);
+        let magnitude = max(max(max(abs(si.p.x), abs(si.p.y)), abs(si.p.z)), max(max(abs(p.x), abs(p.y)), abs(p.z)));
         let tolerance = PLANE_TOLERANCE * radius;
-        if (dot(d, n_point) < -tolerance || dot(d, n_photon) > tolerance) {
+        let step = min(max(STEP_TOLERANCE * radius, PLANE_POSITION_ERROR * magnitude), tolerance);
+        if (!(lower >= -step || (lower >= -tolerance && upper <= step))) {
             return;
         }
     }

@@ -300,6 +300,8 @@ mod tests {
             ("SPPM_ALPHA", sppm::SPPM_ALPHA as f64),
             ("PHOTON_STREAM", sppm::PHOTON_STREAM as f64),
             ("PLANE_TOLERANCE", sppm::PLANE_TOLERANCE as f64),
+            ("STEP_TOLERANCE", sppm::STEP_TOLERANCE as f64),
+            ("PLANE_POSITION_ERROR", sppm::PLANE_POSITION_ERROR as f64),
             ("SPPM_HEADER_WORDS", crate::gpu::renderer::SPPM_HEADER_WORDS as f64),
             ("SPPM_DISPATCH", crate::gpu::renderer::SPPM_DISPATCH_WORD as f64),
             ("SPPM_SCAN_BLOCK", crate::gpu::renderer::SPPM_SCAN_BLOCK as f64),
