@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
 """How much any per-pixel sample count could gain at equal time: a model, not a render.
 
-    python3 bench/adaptive/ceiling.py REF.exr REF_SPP PILOT.exr PILOT_SPP COST.txt
+    python3 bench/adaptive/ceiling.py REF.exr REF_SPP PILOT.exr PILOT_SPP COST.txt [MEAN_SPP ...]
 
 REF.exr is a converged render with pathlight's `variance.R/G/B` channels (the variance of
 each pixel's mean), PILOT.exr a render of PILOT_SPP samples of the same scene and size,
 COST.txt one line per pixel in pixel order, "rays seconds", what each pixel cost over any
-fixed number of samples (only ratios between pixels are read). The cost files behind
+fixed number of samples (only ratios between pixels are read); MEAN_SPP the mean samples
+per pixel to compare at (default 50 and 200; an adaptive render's own, to set it beside
+one). The cost files behind
 `bench/history/sampling.md` ("The equal-time ceiling") came from a per-pixel timer put into
 the CPU backend for the measurement and taken out again.
 
@@ -81,9 +83,9 @@ def main():
 
     widened = np.maximum(neighbours_largest(pilot_v), 0.25 * pilot_v.mean())
     rule = np.sqrt(widened * pilot_v.mean()).ravel()
-    for mean_spp in (50, 200):
+    for mean_spp in [float(m) for m in sys.argv[6:]] or [50, 200]:
         print(
-            f"mean {mean_spp} spp: oracle {gain_equal_samples(counts(np.sqrt(v), mean_spp)):.2f}× "
+            f"mean {mean_spp:g} spp: oracle {gain_equal_samples(counts(np.sqrt(v), mean_spp)):.2f}× "
             f"at equal samples, {gain_equal_time(counts(np.sqrt(v / cost), mean_spp)):.2f}× at "
             f"equal time ({gain_equal_time(counts(np.sqrt(v), mean_spp)):.2f}× blind to cost); "
             f"the rule {gain_equal_samples(counts(rule, mean_spp)):.2f}× at equal samples, "
