@@ -780,7 +780,8 @@ pub const PLANE_POSITION_ERROR: f32 = 32.0 * f32::EPSILON;
 /// surfaces, or light through a thin wall: a point on the slit room's floor, beside its
 /// lamp box, is in front of the photons on the box's floor inside, 1 mm above its own, and
 /// behind their plane; and in front of the photons on the box's inner walls, behind theirs.
-/// Such a pair counts only within [`STEP_TOLERANCE`] of the radius (float error). Until
+/// Such a pair counts only within [`STEP_TOLERANCE`] of the radius, or the positions' float
+/// error ([`PLANE_POSITION_ERROR`]) where that is larger. Until
 /// 2026-12-06 it counted within [`PLANE_TOLERANCE`], and the slit room was +114% bright
 /// at 24² and 256 passes; now +18%. What is left is beyond any plane test: a point on the
 /// floor outside the box is in front of the inner faces of its far walls and lid, and they
