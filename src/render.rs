@@ -47,8 +47,8 @@ pub struct RenderSettings {
     /// GPU backend then holds a buffer of 4 bytes per pixel for them.
     pub adaptive: bool,
     /// Photon mapping: photons per pass for `sppm`, photons of the global map for `photon`
-    /// (`--photons`); `None`: one per pixel (`sppm`), `integrator::photon::default_map_photons`
-    /// (`photon`).
+    /// (`--photons`); `None`: `integrator::sppm::DEFAULT_SPPM_PHOTONS_PER_PIXEL` per pixel
+    /// (`sppm`), `integrator::photon::default_map_photons` (`photon`).
     pub photons: Option<u32>,
     /// `photon` only: photons traced for the caustic map (`--caustic-photons`); `None`:
     /// `integrator::photon::default_map_photons`.

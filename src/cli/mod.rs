@@ -99,7 +99,7 @@ pub struct SceneArgs {
     /// densities).
     #[arg(long, value_name = "S,T", value_parser = parse_strategy)]
     pub bdpt_strategy: Option<(u32, u32)>,
-    /// With --integrator sppm: photons traced per pass (default: one per pixel); with
+    /// With --integrator sppm: photons traced per pass (default: two per pixel); with
     /// --integrator photon: photons traced for the global map (default: four per pixel, at
     /// least 262,144).
     #[arg(long, value_name = "N")]

@@ -93,9 +93,18 @@ pub const PHOTON_STREAM: u32 = u32::MAX - 1;
 
 /// The initial radius in pixel footprints unless told otherwise (`--sppm-radius`): on the
 /// 128² Cornell box at 9 s, 3 pixels had the least error of 1, 2, 3, 6 and 12.8 (relMSE
-/// 9.5, 3.6, 2.9, 5.8 and 12.9 ·10⁻⁴: noise below 3, the blur's bias above), and a pass
-/// of one photon per pixel finds a few dozen photons in most pixels' disks.
+/// 9.5, 3.6, 2.9, 5.8 and 12.9 ·10⁻⁴: noise below 3, the blur's bias above), with one
+/// photon per pixel per pass (the default then), whose passes find a few dozen photons in
+/// most pixels' disks.
 pub const DEFAULT_SPPM_RADIUS_PIXELS: f32 = 3.0;
+
+/// Photons per pass per pixel unless told otherwise (`--photons`). On the 128² Cornell box
+/// at 20 s (two seeds each, against a 4,096-spp path-traced reference) one, two and four
+/// per pixel gave relMSE 1.20, 1.00 and 0.98 ·10⁻⁴; on the mirror-and-glass box behind its
+/// pane 4.36, 4.38 and 4.53 ·10⁻⁴ (bench/RESULTS.md, "What the defaults were chosen by").
+/// More photons per pass shrink the radius faster and leave fewer passes for the camera
+/// paths; two is where the Cornell box gains and the glass scene does not lose.
+pub const DEFAULT_SPPM_PHOTONS_PER_PIXEL: u32 = 2;
 
 /// The most photons one pass may trace (`--photons`).
 pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 24;
@@ -196,12 +205,16 @@ pub struct SppmSettings {
 }
 
 impl SppmSettings {
-    /// The photon passes `settings` ask for (`RenderSettings::photons`, `sppm_radius`): one
-    /// photon per pixel and [`DEFAULT_SPPM_RADIUS_PIXELS`] unless told otherwise.
+    /// The photon passes `settings` ask for (`RenderSettings::photons`, `sppm_radius`):
+    /// [`DEFAULT_SPPM_PHOTONS_PER_PIXEL`] and [`DEFAULT_SPPM_RADIUS_PIXELS`] unless told
+    /// otherwise.
     pub fn of_render(settings: &crate::render::RenderSettings) -> SppmSettings {
         let s = settings;
         SppmSettings {
-            photons: s.photons.unwrap_or(s.width * s.height).min(MAX_PHOTONS_PER_PASS),
+            photons: s
+                .photons
+                .unwrap_or(s.width.saturating_mul(s.height).saturating_mul(DEFAULT_SPPM_PHOTONS_PER_PIXEL))
+                .min(MAX_PHOTONS_PER_PASS),
             radius_pixels: s.sppm_radius.unwrap_or(DEFAULT_SPPM_RADIUS_PIXELS),
         }
     }
