@@ -349,25 +349,13 @@ fn bdpt_join_light_sample(pt: BdptVertex, ptm: BdptVertex, si: SurfaceInteractio
     if (pt.kind != VERTEX_SURFACE || !pt.connectible || frame.light_count == 0u) {
         return vec3<f32>(0.0);
     }
-    let ls = sample_light(si.p, si.p_error, si.n_geometric, rng_next_2d());
-    if (!ls.valid) {
+    let unblocked = unblocked_light_sample(si, bsdf, rng_next_2d());
+    if (!unblocked.valid) {
         return vec3<f32>(0.0);
     }
-    let wi = frame_to_local(si.frame, ls.wi);
-    var f = vec3<f32>(0.0);
-    if (sides_agree(si, ls.wi, wi)) {
-        f = gltf_bsdf_eval(bsdf, si.wo, wi);
-    }
-    if (max_element(f) <= 0.0) {
-        return vec3<f32>(0.0);
-    }
-    var alpha_seed = 0u;
-    if (FEATURE_ALPHA) {
-        alpha_seed = rng_next_u32();
-    }
-    if (intersect_any(ls.shadow_ray, alpha_seed)) {
-        return vec3<f32>(0.0);
-    }
+    let ls = unblocked.ls;
+    let wi = unblocked.wi;
+    let f = unblocked.f;
     let value = pt.beta * f * abs(wi.z) * ls.radiance / ls.pdf;
     // The sampled light as a vertex, for its densities.
     let light = lights[ls.light_index];

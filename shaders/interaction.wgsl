@@ -1,5 +1,6 @@
 // Twin of src/integrator/interaction.rs: the surface record every integrator builds at a
-// path vertex, the side test of a sampled direction, and the first-hit AOV's entry point.
+// path vertex, the side test of a sampled direction, a light sample that reaches the
+// surface, and the first-hit AOV's entry point.
 
 struct SurfaceInteraction {
     p: vec3<f32>,
@@ -106,6 +107,41 @@ fn sides_agree(si: SurfaceInteraction, wi_world: vec3<f32>, wi_local: vec3<f32>)
     let wo_side = dot(si.wo_world, si.n_geometric);
     let reflected_geometrically = dot(wi_world, si.n_geometric) * wo_side > 0.0;
     return reflected_geometrically == (wi_local.z > 0.0);
+}
+
+// Twin of `unblocked_light_sample`: a light sample at `si` that its BSDF reflects and
+// nothing blocks, the part next-event estimation and BDPT's s = 1 strategy share; `valid`
+// false where none was sampled, the BSDF does not reflect that way or the shadow ray is
+// blocked. The shadow ray, and its alpha number, only where the BSDF reflects.
+struct UnblockedLightSample {
+    ls: LightSample,
+    // The sample's direction in `si`'s shading frame, and the BSDF's value there.
+    wi: vec3<f32>,
+    f: vec3<f32>,
+    valid: bool,
+}
+
+fn unblocked_light_sample(si: SurfaceInteraction, bsdf: GltfBsdf, u_light: vec2<f32>) -> UnblockedLightSample {
+    var out: UnblockedLightSample;
+    out.valid = false;
+    out.ls = sample_light(si.p, si.p_error, si.n_geometric, u_light);
+    if (!out.ls.valid) {
+        return out;
+    }
+    out.wi = frame_to_local(si.frame, out.ls.wi);
+    out.f = vec3<f32>(0.0);
+    if (sides_agree(si, out.ls.wi, out.wi)) {
+        out.f = gltf_bsdf_eval(bsdf, si.wo, out.wi);
+    }
+    if (max_element(out.f) <= 0.0) {
+        return out;
+    }
+    var alpha_seed = 0u;
+    if (FEATURE_ALPHA) {
+        alpha_seed = rng_next_u32();
+    }
+    out.valid = !intersect_any(out.ls.shadow_ray, alpha_seed);
+    return out;
 }
 
 // What the camera ray of sample 0 hits: the first-hit AOV (distance, normal, albedo).

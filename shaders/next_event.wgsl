@@ -9,26 +9,13 @@ fn next_event(si: SurfaceInteraction, bsdf: GltfBsdf, beta: vec3<f32>) -> vec3<f
         return vec3<f32>(0.0);
     }
     let u_light = rng_next_2d();
-    let ls = sample_light(si.p, si.p_error, si.n_geometric, u_light);
-    if (!ls.valid) {
+    let unblocked = unblocked_light_sample(si, bsdf, u_light);
+    if (!unblocked.valid) {
         return vec3<f32>(0.0);
     }
-    let wi = frame_to_local(si.frame, ls.wi);
-    var f = vec3<f32>(0.0);
-    if (sides_agree(si, ls.wi, wi)) {
-        f = gltf_bsdf_eval(bsdf, si.wo, wi);
-    }
-    if (max_element(f) <= 0.0) {
-        return vec3<f32>(0.0);
-    }
-    var shadow_seed = 0u;
-    if (FEATURE_ALPHA) {
-        shadow_seed = rng_next_u32();
-    }
-    if (intersect_any(ls.shadow_ray, shadow_seed)) {
-        return vec3<f32>(0.0);
-    }
-    let contribution = beta * f * abs(wi.z) * ls.radiance;
+    let ls = unblocked.ls;
+    let wi = unblocked.wi;
+    let contribution = beta * unblocked.f * abs(wi.z) * ls.radiance;
     if (ls.is_delta) {
         return contribution / ls.pdf;
     }

@@ -59,7 +59,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
+use super::interaction::{sides_agree, surface_interaction, unblocked_light_sample, SurfaceInteraction};
 use super::light_tracing::{sample_triangle_emission, LIGHT_RR_MIN_VERTICES};
 use super::roulette::{survival_probability, MAX_BOUNCES_GUARD, RR_ANY_BOUNCE_DEPTH};
 use super::IntegratorSettings;
@@ -67,8 +67,7 @@ use crate::bsdf::GltfBsdf;
 use crate::bvh::ClosestHit;
 use crate::geometry::{spawn_ray, spawn_ray_to, Frame, Ray, TriangleHit};
 use crate::light::{
-    choose_light, environment_lookup, sample_environment, sample_light, spot_falloff,
-    triangle_light_normal_area,
+    choose_light, environment_lookup, sample_environment, spot_falloff, triangle_light_normal_area,
 };
 use crate::sampling::{sample_uniform_disk_concentric, sample_uniform_sphere, PathSampler, Rng};
 use crate::scene::camera::PinholeProjection;
@@ -1199,19 +1198,12 @@ fn join_light_sample(
     }
     let si = &surface.si;
     let u_light = sampler.uniform_2d();
-    let Some(ls) = sample_light(scene.light_arrays(), si.p, si.p_error, si.n_geometric, u_light) else {
+    let lights = scene.light_arrays();
+    let Some((ls, wi, f)) =
+        unblocked_light_sample(scene, lights, si, &surface.bsdf, u_light, || sampler.u32(), rays)
+    else {
         return Vec3::ZERO;
     };
-    let wi = si.frame.to_local(ls.wi);
-    let f = if sides_agree(si, ls.wi, wi) { surface.bsdf.eval(si.wo, wi) } else { Vec3::ZERO };
-    let unoccluded = f.max_element() > 0.0 && {
-        *rays += 1;
-        let alpha_seed = if scene.features.alpha { sampler.u32() } else { 0 };
-        !scene.intersect_any(&ls.shadow_ray, alpha_seed)
-    };
-    if !unoccluded {
-        return Vec3::ZERO;
-    }
     let value = pt.beta * f * wi.z.abs() * ls.radiance / ls.pdf;
     // The sampled light as a vertex, for its densities.
     let light = &scene.lights[ls.light_index as usize];

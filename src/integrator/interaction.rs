@@ -1,17 +1,49 @@
 //! The surface a path meets: the interaction record every integrator builds at a hit (the
 //! path vertex of Veach 1997 §8.2, with its shading frame), the side test every sampled
-//! direction passes, and the first-hit AOV.
+//! direction passes, a light sample that reaches the surface, and the first-hit AOV.
 //!
 //! WGSL twin: `shaders/interaction.wgsl`, with the same names.
 
 use glam::{Vec2, Vec3};
 
+use crate::bsdf::GltfBsdf;
 use crate::bvh::ClosestHit;
 use crate::geometry::{triangle_error_bound, Frame, Ray};
+use crate::light::{sample_light, LightArrays, LightSample};
 use crate::sampling::{PathSampler, SamplerKind};
 use crate::scene::layout::{FirstHit, INVALID_INDEX, TRIANGLE_HAS_NORMALS, TRIANGLE_HAS_TANGENTS};
 use crate::scene::texture::{textured_material, LOD_FINEST};
 use crate::scene::{oct_decode, FlatScene};
+
+/// A light sample at `si` that its BSDF reflects and nothing blocks: the part next-event
+/// estimation (`super::path::next_event`) and bidirectional path tracing's s = 1 strategy
+/// share. Returns the sample, its direction in `si`'s shading frame and the BSDF's value
+/// there; `None` where no light was sampled, the BSDF does not reflect that way, or
+/// something blocks the shadow ray. The shadow ray is traced, and `alpha_seed` asked for
+/// its stochastic-alpha number, only where the BSDF reflects, as the WGSL twin does, so
+/// that the numbers a path draws stay in step on both backends.
+#[inline(always)]
+pub(crate) fn unblocked_light_sample(
+    scene: &FlatScene,
+    lights: LightArrays,
+    si: &SurfaceInteraction,
+    bsdf: &GltfBsdf,
+    u_light: Vec2,
+    alpha_seed: impl FnOnce() -> u32,
+    rays: &mut u64,
+) -> Option<(LightSample, Vec3, Vec3)> {
+    let ls = sample_light(lights, si.p, si.p_error, si.n_geometric, u_light)?;
+    let wi = si.frame.to_local(ls.wi);
+    let f = if sides_agree(si, ls.wi, wi) { bsdf.eval(si.wo, wi) } else { Vec3::ZERO };
+    // Written so that a NaN value traces no ray.
+    if f.max_element() > 0.0 {
+        *rays += 1;
+        let seed = if scene.features.alpha { alpha_seed() } else { 0 };
+        (!scene.intersect_any(&ls.shadow_ray, seed)).then_some((ls, wi, f))
+    } else {
+        None
+    }
+}
 
 /// Everything about a ray's hit the integrator needs.
 #[derive(Clone, Copy, Debug)]

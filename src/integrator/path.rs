@@ -14,7 +14,7 @@
 
 use glam::Vec3;
 
-use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
+use super::interaction::{sides_agree, surface_interaction, unblocked_light_sample, SurfaceInteraction};
 use super::irradiance_cache::IrradianceCache;
 use super::mis::power_heuristic;
 use super::partition::caustic_is_light_traced;
@@ -22,7 +22,7 @@ use super::roulette::{survival_probability, MAX_BOUNCES_GUARD, RR_ANY_BOUNCE_DEP
 use super::IntegratorSettings;
 use crate::bsdf::GltfBsdf;
 use crate::geometry::{spawn_ray, Ray};
-use crate::light::{environment_lookup, sample_light, triangle_light_pdf, LightArrays};
+use crate::light::{environment_lookup, triangle_light_pdf, LightArrays};
 use crate::sampling::PathSampler;
 use crate::scene::camera::RayCone;
 use crate::scene::layout::{INVALID_INDEX, MATERIAL_DOUBLE_SIDED, MATERIAL_VOLUME};
@@ -315,19 +315,10 @@ pub(crate) fn next_event(
     }
     // One 2-D point chooses the light and the point on it (`choose_light_reusing`).
     let u_light = rng.next_2d();
-    let Some(ls) = sample_light(lights, si.p, si.p_error, si.n_geometric, u_light) else {
+    let Some((ls, wi, f)) = unblocked_light_sample(scene, lights, si, bsdf, u_light, || rng.next_u32(), rays)
+    else {
         return Vec3::ZERO;
     };
-    let wi = si.frame.to_local(ls.wi);
-    let f = if sides_agree(si, ls.wi, wi) { bsdf.eval(si.wo, wi) } else { Vec3::ZERO };
-    let unoccluded = f.max_element() > 0.0 && {
-        *rays += 1;
-        let alpha_seed = if scene.features.alpha { rng.next_u32() } else { 0 };
-        !scene.intersect_any(&ls.shadow_ray, alpha_seed)
-    };
-    if !unoccluded {
-        return Vec3::ZERO;
-    }
     let contribution = beta * f * wi.z.abs() * ls.radiance;
     if ls.is_delta {
         contribution / ls.pdf
