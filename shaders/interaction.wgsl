@@ -133,7 +133,8 @@ fn unblocked_light_sample(si: SurfaceInteraction, bsdf: GltfBsdf, u_light: vec2<
     if (sides_agree(si, out.ls.wi, out.wi)) {
         out.f = gltf_bsdf_eval(bsdf, si.wo, out.wi);
     }
-    if (max_element(out.f) <= 0.0) {
+    // Negated so that a NaN value traces no ray, as on the CPU.
+    if (!(max_element(out.f) > 0.0)) {
         return out;
     }
     var alpha_seed = 0u;
