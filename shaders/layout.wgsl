@@ -315,6 +315,7 @@ const MATERIAL_DOUBLE_SIDED: u32 = 1u;
 const MATERIAL_VOLUME: u32 = 2u;
 const MATERIAL_ALPHA_MASK: u32 = 4u;
 const MATERIAL_ALPHA_BLEND: u32 = 8u;
+const MATERIAL_DELTA_ONLY: u32 = 16u;
 const LIGHT_TRIANGLE: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
 const LIGHT_SPOT: u32 = 2u;

@@ -596,6 +596,206 @@ fn sppm_photon_flux(i: u32, si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32,
     (*out).m += 1u;
 }
 
+// Twins of `crate::bvh::MAX_DEPTH` (the gather area's traversal stack) and
+// `MAX_COVERAGE_CORRECTION`.
+const GATHER_STACK_SIZE: u32 = 64u;
+const MAX_COVERAGE_CORRECTION: f32 = 8.0;
+
+// Twin of `gather_area::segment_area_in_disk`: the signed area of the triangle (0, a, b)
+// inside the circle of squared radius rho2 about 0.
+fn gather_sector(p: vec2<f32>, q: vec2<f32>, rho2: f32) -> f32 {
+    return 0.5 * rho2 * atan2(p.x * q.y - p.y * q.x, dot(p, q));
+}
+
+fn gather_segment_area(a: vec2<f32>, b: vec2<f32>, rho2: f32) -> f32 {
+    let d = b - a;
+    let dd = dot(d, d);
+    if (!(dd > 0.0)) {
+        return 0.0;
+    }
+    let t0 = -dot(a, d) / dd;
+    let m = a + d * t0;
+    let inside2 = rho2 - dot(m, m);
+    if (!(inside2 > 0.0)) {
+        return gather_sector(a, b, rho2);
+    }
+    let half = sqrt(inside2 / dd);
+    let t1 = t0 - half;
+    let t2 = t0 + half;
+    if (t1 >= 1.0 || t2 <= 0.0) {
+        return gather_sector(a, b, rho2);
+    }
+    let p1 = select(a, a + d * t1, t1 > 0.0);
+    let p2 = select(b, a + d * t2, t2 < 1.0);
+    var area = 0.5 * (p1.x * p2.y - p1.y * p2.x);
+    if (t1 > 0.0) {
+        area += gather_sector(a, p1, rho2);
+    }
+    if (t2 < 1.0) {
+        area += gather_sector(p2, b, rho2);
+    }
+    return area;
+}
+
+// What one gather accepts (twin of `gather_area::GatherRegion`).
+struct GatherRegion {
+    center: vec3<f32>,
+    n_point: vec3<f32>,
+    radius: f32,
+    tolerance: f32,
+    step: f32,
+    winding_side: f32,
+    transmits: bool,
+}
+
+// Twin of `gather_area::clip_to_half_space`: clips polygon[0..count) to y·n ≥ −offset.
+fn gather_clip(polygon: ptr<function, array<vec3<f32>, 5>>, count: u32, n: vec3<f32>, offset: f32) -> u32 {
+    let corners = *polygon;
+    var out = 0u;
+    for (var i = 0u; i < count; i++) {
+        let p = corners[i];
+        let q = corners[(i + 1u) % count];
+        let dp = dot(p, n) + offset;
+        let dq = dot(q, n) + offset;
+        if (dp >= 0.0 && out < 5u) {
+            (*polygon)[out] = p;
+            out += 1u;
+        }
+        if ((dp >= 0.0) != (dq >= 0.0) && out < 5u) {
+            (*polygon)[out] = p + (q - p) * (dp / (dp - dq));
+            out += 1u;
+        }
+    }
+    return out;
+}
+
+// Twin of `gather_area::polygon_area_in_disk`.
+fn gather_polygon_area(flat: array<vec2<f32>, 5>, count: u32, rho2: f32) -> f32 {
+    var crossed = false;
+    var positive = false;
+    var negative = false;
+    for (var i = 0u; i < count; i++) {
+        let p = flat[i];
+        let q = flat[(i + 1u) % count];
+        let d = q - p;
+        let dd = dot(d, d);
+        let m = p + d * (-dot(p, d) / dd);
+        crossed = crossed || !(dd > 0.0) || dot(m, m) < rho2;
+        let side = p.x * q.y - p.y * q.x;
+        positive = positive || side > 0.0;
+        negative = negative || side < 0.0;
+    }
+    if (!crossed) {
+        return select(PI * rho2, 0.0, positive && negative);
+    }
+    var signed = 0.0;
+    for (var i = 0u; i < count; i++) {
+        signed += gather_segment_area(flat[i], flat[(i + 1u) % count], rho2);
+    }
+    return abs(signed);
+}
+
+// Twin of `gather_area::triangle_area_in_region`.
+fn gather_triangle_area(t: Triangle, region: GatherRegion) -> f32 {
+    let x = region.center;
+    let a = t.p0 - x;
+    let b = t.p1 - x;
+    let c = t.p2 - x;
+    let cr = cross(b - a, c - a);
+    let len = length(cr);
+    if (!(len > 0.0)) {
+        return 0.0;
+    }
+    let n = cr / len * region.winding_side;
+    let height = -dot(a, n);
+    let rho2 = region.radius * region.radius - height * height;
+    if (!(rho2 > 0.0)) {
+        return 0.0;
+    }
+    var polygon = array<vec3<f32>, 5>(a, b, c, vec3<f32>(0.0), vec3<f32>(0.0));
+    var count = 3u;
+    if (!region.transmits) {
+        // The bounds on the photon's height above the point's plane (the CPU twin explains).
+        var lower = region.step;
+        var slab = false;
+        if (height > region.step) {
+            lower = region.step;
+        } else if (height >= -region.step) {
+            lower = region.tolerance;
+        } else if (height >= -region.tolerance) {
+            lower = region.tolerance;
+            slab = true;
+        } else {
+            return 0.0;
+        }
+        count = gather_clip(&polygon, count, region.n_point, lower);
+        if (slab) {
+            count = gather_clip(&polygon, count, -region.n_point, region.step);
+        }
+    }
+    if (count < 3u) {
+        return 0.0;
+    }
+    let frame = frame_from_z(n);
+    var flat: array<vec2<f32>, 5>;
+    for (var i = 0u; i < count; i++) {
+        flat[i] = vec2<f32>(dot(polygon[i], frame.x), dot(polygon[i], frame.y));
+    }
+    return gather_polygon_area(flat, count, rho2);
+}
+
+// Twin of `gather_area::gather_area`: depth first, first child before second.
+fn gather_area(region: GatherRegion) -> f32 {
+    if (!(region.radius > 0.0)) {
+        return 0.0;
+    }
+    let r2 = region.radius * region.radius;
+    var stack: array<u32, GATHER_STACK_SIZE>;
+    var sp = 0u;
+    var current = 0u;
+    var area = 0.0;
+    loop {
+        let node = nodes[current];
+        let d = max(max(node.bounds_min - region.center, region.center - node.bounds_max), vec3<f32>(0.0));
+        if (dot(d, d) <= r2) {
+            let count = node_triangle_count(node);
+            if (count == 0u) {
+                if (sp < GATHER_STACK_SIZE) {
+                    stack[sp] = node.offset;
+                    sp += 1u;
+                }
+                current += 1u;
+                continue;
+            }
+            for (var i = node.offset; i < node.offset + count; i++) {
+                let t = triangles[i];
+                if ((materials[t.material].flags & MATERIAL_DELTA_ONLY) == 0u) {
+                    area += gather_triangle_area(t, region);
+                }
+            }
+        }
+        if (sp == 0u) {
+            break;
+        }
+        sp -= 1u;
+        current = stack[sp];
+    }
+    return area;
+}
+
+// Twin of `coverage_correction`: πr² over the area the gather at `si` draws from.
+fn sppm_coverage_correction(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> f32 {
+    let ng = si.n_geometric;
+    let n_point = select(-ng, ng, dot(si.wo_world, ng) > 0.0);
+    let tolerance = PLANE_TOLERANCE * radius;
+    let magnitude = max(max(abs(si.p.x), abs(si.p.y)), abs(si.p.z));
+    let step = min(max(STEP_TOLERANCE * radius, PLANE_POSITION_ERROR * magnitude), tolerance);
+    let winding_side = select(-1.0, 1.0, dot(si.wo_world, ng) > 0.0);
+    let region = GatherRegion(si.p, n_point, radius, tolerance, step, winding_side, has_rough_transmission(bsdf));
+    let disk = PI * radius * radius;
+    return disk / clamp(gather_area(region), disk / MAX_COVERAGE_CORRECTION, disk);
+}
+
 // Twin of `PhotonGrid::gather`. Cells may share a slot: each cell's run is read, and a
 // photon counts only in its own cell, so that every photon within the radius (whose cell
 // lies in the range) counts once. A range with more cells than slots reads every slot.
@@ -652,7 +852,8 @@ fn sppm_gather(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (vp.triangle != INVALID_INDEX) {
         let surface = sppm_surface(vp);
         let si = surface.si;
-        let gathered = sppm_gather_photons(SppmMap(0u, 0u), si, surface.bsdf, state.radius);
+        var gathered = sppm_gather_photons(SppmMap(0u, 0u), si, surface.bsdf, state.radius);
+        gathered.phi *= sppm_coverage_correction(si, surface.bsdf, state.radius);
         let area = PI * state.radius * state.radius;
         estimate += vp.beta * gathered.phi / (f32(frame.sppm_photons) * area);
         if (gathered.m > 0u) {

@@ -51,7 +51,9 @@ use super::transmission::{
     transmission_eval, transmission_half_vector, transmission_pdf, transmission_sample,
 };
 use crate::geometry::Frame;
-use crate::scene::layout::{Material, MATERIAL_VOLUME};
+use crate::scene::layout::{
+    Material, INVALID_INDEX, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, MATERIAL_VOLUME,
+};
 
 /// F₀ of the clear coat: KHR_materials_clearcoat fixes its index at 1.5.
 pub const CLEARCOAT_F0: f32 = 0.04;
@@ -646,6 +648,23 @@ impl GltfBsdf {
             eta_scale,
         })
     }
+}
+
+/// Does material `m` reflect or refract only by delta lobes, from both sides, with nothing
+/// that varies over the surface (textures) or lets light through unscattered (alpha)?
+/// `crate::scene::FlatScene::build` marks such materials `MATERIAL_DELTA_ONLY`: the camera
+/// connections of a view through them are skipped (`crate::integrator::delta_view`) and no
+/// photon is stored on them (`crate::integrator::gather_area`).
+pub fn is_delta_only(m: &Material) -> bool {
+    if m.texture_inputs().iter().any(|&t| t != INVALID_INDEX)
+        || m.flags & (MATERIAL_ALPHA_MASK | MATERIAL_ALPHA_BLEND) != 0
+    {
+        return false;
+    }
+    [true, false].into_iter().all(|front| {
+        let bsdf = GltfBsdf::new(m, Vec3::Z, front, Vec3::Z);
+        !bsdf.has_non_delta() && bsdf.lobe_probabilities().iter().any(|&p| p > 0.0)
+    })
 }
 
 #[cfg(test)]

@@ -17,7 +17,9 @@ pub mod sheen;
 pub mod thin_transmission;
 pub mod transmission;
 
-pub use gltf::{BsdfSample, GltfBsdf, CLEARCOAT_F0, COAT_MIN_BASE_COSINE, LOBE_SELECTION_FLOOR};
+pub use gltf::{
+    is_delta_only, BsdfSample, GltfBsdf, CLEARCOAT_F0, COAT_MIN_BASE_COSINE, LOBE_SELECTION_FLOOR,
+};
 
 /// Smallest GGX α used for a non-zero roughness. GGX's normalisation has α⁴ in its
 /// denominator; below α ≈ 1e-4 that underflows f32 (and GPUs flush denormals), so rougher

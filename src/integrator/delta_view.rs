@@ -21,10 +21,7 @@
 
 use glam::{DVec2, DVec3, Vec3};
 
-use crate::bsdf::GltfBsdf;
-use crate::scene::layout::{
-    Camera, Material, INVALID_INDEX, MATERIAL_ALPHA_BLEND, MATERIAL_ALPHA_MASK, PROJECTION_PERSPECTIVE,
-};
+use crate::scene::layout::{Camera, MATERIAL_DELTA_ONLY, PROJECTION_PERSPECTIVE};
 use crate::scene::FlatScene;
 
 /// Pieces of the image rectangle left uncovered below this fraction of its area are taken
@@ -50,7 +47,7 @@ pub fn camera_sees_only_delta_surfaces(scene: &FlatScene, camera: &Camera) -> bo
     let eye = Vec3::from(camera.position).as_dvec3();
     let axes = [camera.right, camera.up, camera.forward].map(|a| Vec3::from(a).as_dvec3());
     let (tx, ty) = (camera.half_width as f64, camera.half_height as f64);
-    let occluder: Vec<bool> = scene.materials.iter().map(is_delta_occluder).collect();
+    let occluder: Vec<bool> = scene.materials.iter().map(|m| m.flags & MATERIAL_DELTA_ONLY != 0).collect();
     let mut nearest_other = f64::INFINITY;
     let mut occluders: Vec<(f64, Vec<DVec3>)> = Vec::new();
     for tri in &scene.triangles {
@@ -111,20 +108,6 @@ pub fn camera_sees_only_delta_surfaces(scene: &FlatScene, camera: &Camera) -> bo
         }
     }
     pieces.iter().map(|p| signed_area(p)).sum::<f64>() <= min_area
-}
-
-/// A material that reflects or refracts only by delta lobes, from both sides, with nothing
-/// that varies over the surface (textures) or lets light through unscattered (alpha).
-fn is_delta_occluder(m: &Material) -> bool {
-    if m.texture_inputs().iter().any(|&t| t != INVALID_INDEX)
-        || m.flags & (MATERIAL_ALPHA_MASK | MATERIAL_ALPHA_BLEND) != 0
-    {
-        return false;
-    }
-    [true, false].into_iter().all(|front| {
-        let bsdf = GltfBsdf::new(m, Vec3::Z, front, Vec3::Z);
-        !bsdf.has_non_delta() && bsdf.lobe_probabilities().iter().any(|&p| p > 0.0)
-    })
 }
 
 /// Sutherland–Hodgman: the part of the triangle inside the pyramid |x| ≤ tx·z, |y| ≤ ty·z

@@ -30,6 +30,7 @@
 pub mod aov;
 pub mod bdpt;
 pub mod delta_view;
+pub mod gather_area;
 pub mod interaction;
 pub mod irradiance_cache;
 pub mod light_tracing;

@@ -29,12 +29,17 @@
 //!    arrived on the same side of their surface as the visible point's camera ray and that
 //!    face it across the gap between their surfaces ([`facing_each_other`]), Φ = Σ β_p
 //!    f(ω_o, ω_p) |ω_p·n_s| / |ω_p·n_g| (the last ratio turns flux per unit of geometric area
-//!    into the shading normal's cosine), M of them; then pbrt's update with α = 2/3:
-//!    N' = N + αM, r' = r √(N'/(N + M)), τ' = (τ + β Φ) r'²/r².
+//!    into the shading normal's cosine), M of them. Where the surface the gather reads within
+//!    r is less than the disk πr² (past a convex edge, at a silhouette) Φ is scaled by πr²
+//!    over that area, measured exactly from the triangles ([`coverage_correction`],
+//!    `super::gather_area`), so that it is flux over the disk as the update assumes. Then
+//!    pbrt's update with α = 2/3: N' = N + αM, r' = r √(N'/(N + M)), τ' = (τ + β Φ) r'²/r².
 //!
 //! After n passes of N_p photons a pixel is L = Σ L_direct / n + τ / (n N_p π r²). Its bias
 //! (the blur of the radius) falls as r shrinks; r² falls roughly as n^(α−1) where photons
 //! are dense (Knaus & Zwicker 2011, "Progressive Photon Mapping: A Probabilistic Approach").
+//! The coverage correction shrinks with r too (it is 1 wherever the surface within r is a
+//! plane), so the estimate stays consistent.
 //!
 //! **Variance channels.** A pixel's passes are not independent samples of one mean (they
 //! share the radius and τ), so the film's Welford statistics are kept over each pass's own
@@ -64,6 +69,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::bdpt::{light_subpath_origin, BdptContext};
+use super::gather_area::{gather_area, GatherRegion, MAX_COVERAGE_CORRECTION};
 use super::interaction::{sides_agree, surface_interaction, SurfaceInteraction};
 use super::mis::power_heuristic;
 use super::path::next_event;
@@ -312,6 +318,7 @@ pub fn sppm_pass(
             pixel.direct += path.direct;
             if let Some(vp) = &path.visible {
                 let (phi, m) = grid.gather(&photons, &vp.si, &vp.bsdf, pixel.radius);
+                let phi = phi * coverage_correction(ctx.scene, &vp.si, &vp.bsdf, pixel.radius);
                 let area = std::f32::consts::PI * pixel.radius * pixel.radius;
                 estimate += vp.beta * phi / (photon_count * area);
                 if m > 0 {
@@ -762,6 +769,41 @@ impl PhotonGrid {
     }
 }
 
+/// The factor that turns the flux a gather at `si` within `radius` found into flux over the
+/// disk πr² (step 4 of the module): πr² over the area it draws its photons from
+/// ([`gather_area`]), where that area is smaller than the disk, at most
+/// [`MAX_COVERAGE_CORRECTION`]; else 1.
+///
+/// Where the area is larger, at a concave edge or corner (the disk's part past the edge is
+/// less than the part of the meeting surface within r, which the gather also reads), the
+/// factor stays 1: taking it below 1 there made the Cornell box's room edges 0.5–1% dark
+/// (irradiance falls towards a concave corner, and all of the meeting surface's part lies
+/// within r of it, so its photons weigh the average towards the dark corner), where the
+/// uncorrected estimate is within ±0.6% (bench/RESULTS.md, "Photon mapping").
+pub(crate) fn coverage_correction(
+    scene: &FlatScene,
+    si: &SurfaceInteraction,
+    bsdf: &GltfBsdf,
+    radius: f32,
+) -> f32 {
+    let ng = si.n_geometric;
+    let n_point = if si.wo_world.dot(ng) > 0.0 { ng } else { -ng };
+    let tolerance = PLANE_TOLERANCE * radius;
+    let magnitude = si.p.abs().max_element();
+    let region = GatherRegion {
+        center: si.p,
+        n_point,
+        radius,
+        tolerance,
+        step: (STEP_TOLERANCE * radius).max(PLANE_POSITION_ERROR * magnitude).min(tolerance),
+        winding_side: if si.wo_world.dot(ng) > 0.0 { 1.0 } else { -1.0 },
+        transmits: bsdf.has_rough_transmission(),
+    };
+    let disk = std::f32::consts::PI * radius * radius;
+    let found = gather_area(&scene.nodes, &scene.triangles, &scene.materials, &region);
+    disk / found.clamp(disk / MAX_COVERAGE_CORRECTION, disk)
+}
+
 /// The share of the gather radius by which a photon may lie behind the visible point's
 /// tangent plane, or the point behind the photon's, and still count: a point within r of
 /// another on a sphere of radius R lies within r²/2R of its tangent plane, so 0.1 admits
@@ -812,7 +854,13 @@ fn facing_each_other(d: Vec3, si: &SurfaceInteraction, photon: &Photon, radius: 
 
 /// [`facing_each_other`] with the normals turned to the sides the point and the photon
 /// were reached from, and `magnitude` the largest coordinate of either position.
-fn in_front_of_each_other(d: Vec3, n_point: Vec3, n_photon: Vec3, magnitude: f32, radius: f32) -> bool {
+pub(crate) fn in_front_of_each_other(
+    d: Vec3,
+    n_point: Vec3,
+    n_photon: Vec3,
+    magnitude: f32,
+    radius: f32,
+) -> bool {
     let photon_height = d.dot(n_point);
     let point_height = -d.dot(n_photon);
     let (lower, upper) = (photon_height.min(point_height), photon_height.max(point_height));

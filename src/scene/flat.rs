@@ -108,8 +108,13 @@ impl FlatScene {
         let textures = FlatTextures::build(&scene.images, &scene.textures, &srgb_images);
         let mut texture_bindings = Vec::new();
         let usable = |t: usize| scene.textures.get(t).is_some_and(|t| t.image.is_some());
-        let materials: Vec<layout::Material> =
+        let mut materials: Vec<layout::Material> =
             scene.materials.iter().map(|m| m.to_gpu(&mut texture_bindings, &usable)).collect();
+        for m in &mut materials {
+            if crate::bsdf::is_delta_only(m) {
+                m.flags |= layout::MATERIAL_DELTA_ONLY;
+            }
+        }
         let textured = |m: &layout::Material| m.texture_inputs().iter().any(|&t| t != INVALID_INDEX);
         // Per-triangle UVs and tangents only when some triangle's material reads a texture.
         let any_textured = scene.triangle_materials.iter().any(|&m| textured(&materials[m as usize]));

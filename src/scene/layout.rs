@@ -259,6 +259,10 @@ pub const MATERIAL_ALPHA_MASK: u32 = 4;
 /// [`Material::flags`] bit: alpha mode BLEND, as stochastic transparency (a hit counts with
 /// probability alpha).
 pub const MATERIAL_ALPHA_BLEND: u32 = 8;
+/// [`Material::flags`] bit, set by [`crate::scene::FlatScene::build`]: the material
+/// reflects and refracts only by delta lobes, from both sides, untextured and opaque, so no
+/// photon is ever stored on it (`crate::integrator::gather_area` leaves its area out).
+pub const MATERIAL_DELTA_ONLY: u32 = 16;
 
 gpu_struct! {
     /// One light, with its entry of the power-proportional alias table, 64 bytes.
