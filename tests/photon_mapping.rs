@@ -29,7 +29,9 @@ fn render(scene: &FlatScene, settings: &RenderSettings) -> Film {
 /// measured over the bundled scenes when this was written was −3.8% (cornell-tiny-light,
 /// whose light is mostly indirect; the Cornell box −1.7%); since the gather keeps the
 /// photons on surfaces meeting a visible point's (`facing_each_other`, 2026-12-05), −1.6%
-/// (punctual; cornell-tiny-light −1.4%, the Cornell box −0.7%). The photon-map integrator
+/// (punctual; cornell-tiny-light −1.4%, the Cornell box −0.7%); since each gather
+/// measures the area it reads (`gather_area`, 2026-12-07), −0.8% (punctual;
+/// cornell-tiny-light −0.3%, the Cornell box −0.25%). The photon-map integrator
 /// with its default maps (2¹⁸ photons each, 32 per global estimate) is held to the same
 /// bound: its largest offset measured was −1.9% (glass-index-1; now −1.4%), leaving aside
 /// the lamp room, whose path-traced reference is itself noisy at 1,024 samples (now +8%
