@@ -270,23 +270,19 @@ pub fn sppm_pass(
     stats: &mut SppmStats,
 ) {
     let w = ctx.width as usize;
+    // Indexed, so that rayon writes each path in its place in the vector once.
     let camera_paths: Vec<CameraPath> = rays
-        .par_chunks_mut(w)
+        .par_iter_mut()
         .enumerate()
-        .flat_map_iter(|(y, rays)| {
-            rays.iter_mut()
-                .enumerate()
-                .map(move |(x, rays)| {
-                    let emission = |si: &SurfaceInteraction,
-                                    bs: &BsdfSample,
-                                    beta: Vec3,
-                                    sampler: &mut PathSampler,
-                                    rays: &mut u64| {
-                        bsdf_sampled_emission(ctx.scene, si, bs, beta, sampler, rays)
-                    };
-                    camera_path(ctx, x as u32, y as u32, k, rays, &emission)
-                })
-                .collect::<Vec<_>>()
+        .map(|(i, rays)| {
+            let emission = |si: &SurfaceInteraction,
+                            bs: &BsdfSample,
+                            beta: Vec3,
+                            sampler: &mut PathSampler,
+                            rays: &mut u64| {
+                bsdf_sampled_emission(ctx.scene, si, bs, beta, sampler, rays)
+            };
+            camera_path(ctx, (i % w) as u32, (i / w) as u32, k, rays, &emission)
         })
         .collect();
     // A pixel's first visible point sets its radius.
