@@ -782,17 +782,16 @@ pub(crate) fn coverage_correction(
     bsdf: &GltfBsdf,
     radius: f32,
 ) -> f32 {
-    let ng = si.n_geometric;
-    let n_point = if si.wo_world.dot(ng) > 0.0 { ng } else { -ng };
-    let tolerance = PLANE_TOLERANCE * radius;
-    let magnitude = si.p.abs().max_element();
+    // +1 where the camera ray came from the front of the point's winding.
+    let winding_side = if si.wo_world.dot(si.n_geometric) > 0.0 { 1.0 } else { -1.0 };
+    let (tolerance, step) = plane_tolerances(radius, si.p.abs().max_element());
     let region = GatherRegion {
         center: si.p,
-        n_point,
+        n_point: si.n_geometric * winding_side,
         radius,
         tolerance,
-        step: (STEP_TOLERANCE * radius).max(PLANE_POSITION_ERROR * magnitude).min(tolerance),
-        winding_side: if si.wo_world.dot(ng) > 0.0 { 1.0 } else { -1.0 },
+        step,
+        winding_side,
         transmits: bsdf.has_rough_transmission(),
     };
     let disk = std::f32::consts::PI * radius * radius;
@@ -860,9 +859,17 @@ pub(crate) fn in_front_of_each_other(
     let photon_height = d.dot(n_point);
     let point_height = -d.dot(n_photon);
     let (lower, upper) = (photon_height.min(point_height), photon_height.max(point_height));
+    let (tolerance, step) = plane_tolerances(radius, magnitude);
+    lower >= -step || (lower >= -tolerance && upper <= step)
+}
+
+/// The plane tests' two bounds for a gather within `radius` where the larger coordinate's
+/// magnitude is `magnitude`: ([`PLANE_TOLERANCE`] of the radius, [`STEP_TOLERANCE`] of it
+/// or the positions' float error, whichever is larger, at most the first).
+fn plane_tolerances(radius: f32, magnitude: f32) -> (f32, f32) {
     let tolerance = PLANE_TOLERANCE * radius;
     let step = (STEP_TOLERANCE * radius).max(PLANE_POSITION_ERROR * magnitude).min(tolerance);
-    lower >= -step || (lower >= -tolerance && upper <= step)
+    (tolerance, step)
 }
 
 impl std::ops::AddAssign for SppmStats {
