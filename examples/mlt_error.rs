@@ -3,8 +3,10 @@
 //! tracer need to reach Metropolis's error at the longest of them.
 //!
 //!   cargo run --release --example mlt_error -- SCENE --reference REF.exr --max-depth D
-//!       [--size 128] [--seconds 5,10,20] [--mutations-per-pixel N] [--out DIR]
+//!       [--size 128] [--seconds 5,10,20] [--mutations-per-pixel N] [--luminance-too] [--out DIR]
 //!
+//! `--luminance-too` also runs Metropolis with the plain luminance target (`--mlt-target
+//! luminance`; the default is `relative`), as a column of its own.
 //! Every renderer runs as `pathlight render` runs it on the CPU backend with the same
 //! `--max-depth` (Metropolis keeps one depth per chain, so its depth is bounded, and the
 //! others are held to the same paths): the path tracer with its defaults (four
@@ -20,7 +22,7 @@ use std::path::PathBuf;
 
 use pathlight::bench::series::Series;
 use pathlight::film::{predicted_relmse, LinearImage};
-use pathlight::integrator::mlt::MltSettings;
+use pathlight::integrator::mlt::{MltSettings, MltTarget};
 use pathlight::integrator::Integrator;
 use pathlight::session::{BackendChoice, Session, SessionOptions};
 
@@ -30,6 +32,7 @@ struct Args {
     seconds: Vec<f64>,
     max_depth: u32,
     mutations_per_pixel: Option<u32>,
+    luminance_too: bool,
     reference: PathBuf,
     out: PathBuf,
 }
@@ -41,6 +44,7 @@ fn parse_args() -> Args {
         seconds: vec![5.0, 10.0, 20.0],
         max_depth: 0,
         mutations_per_pixel: None,
+        luminance_too: false,
         reference: PathBuf::new(),
         out: PathBuf::from("target/mlt-error"),
     };
@@ -56,6 +60,7 @@ fn parse_args() -> Args {
             "--mutations-per-pixel" => {
                 args.mutations_per_pixel = Some(value().parse().expect("--mutations-per-pixel N"))
             }
+            "--luminance-too" => args.luminance_too = true,
             "--reference" => args.reference = PathBuf::from(value()),
             "--out" => args.out = PathBuf::from(value()),
             _ if args.scene.as_os_str().is_empty() => args.scene = PathBuf::from(a),
@@ -71,9 +76,11 @@ fn parse_args() -> Args {
 
 /// One progressive render of `integrator` until `seconds` have passed: its relMSE series
 /// (the time spent measuring the error left out), and Metropolis's acceptance rate.
+/// Metropolis runs with `target`.
 fn series(
     args: &Args,
     integrator: Integrator,
+    target: MltTarget,
     seconds: f64,
     reference: &LinearImage,
 ) -> (Series, Option<f64>) {
@@ -90,10 +97,14 @@ fn series(
         let defaults = MltSettings::default();
         o.mlt = MltSettings {
             mutations_per_pixel: args.mutations_per_pixel.unwrap_or(defaults.mutations_per_pixel),
+            target,
             ..defaults
         };
     }
-    let label = integrator.name();
+    let label = match (integrator, target) {
+        (Integrator::Mlt, MltTarget::Luminance) => "mlt-luminance",
+        _ => integrator.name(),
+    };
     let mut session = Session::open(&o).unwrap_or_else(|e| panic!("{e}"));
     let s = Series::of_session(&mut session, label, seconds, reference).unwrap_or_else(|e| panic!("{e}"));
     let acceptance = session.mlt_stats().map(|m| m.acceptance_rate());
@@ -108,9 +119,11 @@ fn main() {
     let name = args.scene.file_stem().unwrap().to_string_lossy().into_owned();
     let reference = LinearImage::read(&args.reference).unwrap_or_else(|e| panic!("{e}"));
     let longest = args.seconds.iter().cloned().fold(0.0, f64::max);
-    let (mlt, acceptance) = series(&args, Integrator::Mlt, longest, &reference);
-    let (bdpt, _) = series(&args, Integrator::Bdpt, longest, &reference);
-    let (path, _) = series(&args, Integrator::Path, longest, &reference);
+    let (mlt, acceptance) = series(&args, Integrator::Mlt, MltTarget::default(), longest, &reference);
+    let luminance =
+        args.luminance_too.then(|| series(&args, Integrator::Mlt, MltTarget::Luminance, longest, &reference));
+    let (bdpt, _) = series(&args, Integrator::Bdpt, MltTarget::default(), longest, &reference);
+    let (path, _) = series(&args, Integrator::Path, MltTarget::default(), longest, &reference);
 
     println!(
         "\n{name}, {0}×{0}, --max-depth {1}, CPU backend, reference {2} (its own relMSE {3}); Metropolis acceptance rate {4:.3}\n",
@@ -120,8 +133,14 @@ fn main() {
         predicted_relmse(&reference).map_or("unknown".into(), |e| format!("{e:.2e}")),
         acceptance.unwrap_or(0.0)
     );
-    println!("| time | relMSE path | relMSE bdpt | relMSE mlt | path ÷ mlt | bdpt ÷ mlt |");
-    println!("|---:|---:|---:|---:|---:|---:|");
+    if let Some((_, Some(a))) = &luminance {
+        println!("Metropolis with the luminance target: acceptance rate {a:.3}\n");
+    }
+    let extra =
+        if luminance.is_some() { " relMSE mlt, luminance target | luminance ÷ relative |" } else { "" };
+    let extra_rule = if luminance.is_some() { "---:|---:|" } else { "" };
+    println!("| time | relMSE path | relMSE bdpt | relMSE mlt | path ÷ mlt | bdpt ÷ mlt |{extra}");
+    println!("|---:|---:|---:|---:|---:|---:|{extra_rule}");
     let fmt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3e}"));
     let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
         (Some(a), Some(b)) => format!("**{:.1}×**", a / b),
@@ -129,7 +148,18 @@ fn main() {
     };
     for &t in &args.seconds {
         let (p, b, m) = (path.error_at_time(t), bdpt.error_at_time(t), mlt.error_at_time(t));
-        println!("| {t} s | {} | {} | {} | {} | {} |", fmt(p), fmt(b), fmt(m), ratio(p, m), ratio(b, m));
+        let extra = luminance.as_ref().map_or(String::new(), |(l, _)| {
+            let l = l.error_at_time(t);
+            format!(" {} | {} |", fmt(l), ratio(l, m))
+        });
+        println!(
+            "| {t} s | {} | {} | {} | {} | {} |{extra}",
+            fmt(p),
+            fmt(b),
+            fmt(m),
+            ratio(p, m),
+            ratio(b, m)
+        );
     }
     println!();
     if let Some(e) = mlt.error_at_time(longest) {

@@ -2,7 +2,8 @@
 // (Kelemen et al. 2002) with the multiplexed choice of strategy (Hachisuka, Kaplanyan &
 // Dachsbacher 2014; pbrt-v4 `MLTIntegrator`), over shaders/bdpt.wgsl's strategies. A pass is
 // four steps, the host between the first two (`GpuBackend::trace_mlt_pass`):
-//   1. `mlt_bootstrap`: each bootstrap sample's target T (its contribution's luminance), an
+//   1. `mlt_bootstrap`: each bootstrap sample's target T (its contribution's luminance
+//      times its pixel's importance, `mlt_importance`, which the host makes), an
 //      independent sample from its own stream; the host reads them back and draws the
 //      chains' starts by T, and the pass's normalisation b, as the CPU does
 //      (`chain_starts`).
@@ -25,6 +26,10 @@
 // Running totals, as 64-bit (low, high) word pairs: rays, accepted mutations, samples
 // dropped for reading past MLT_NUMBERS_PER_STREAM.
 @group(0) @binding(30) var<storage, read_write> mlt_counters: array<atomic<u32>, 6>;
+// Per pixel, the weight of its paths' luminance in the target (the host's `importance_map`,
+// 1 everywhere until it makes one). Only read; declared read_write because binding 31's
+// layout entry is shared with photon mapping's, which writes it.
+@group(0) @binding(31) var<storage, read_write> mlt_importance: array<f32>;
 const MLT_COUNTER_RAYS: u32 = 0u;
 const MLT_COUNTER_ACCEPTED: u32 = 2u;
 const MLT_COUNTER_OVERFLOWS: u32 = 4u;
@@ -169,7 +174,7 @@ fn mlt_target(sample: MltSample) -> f32 {
     if (!sample.valid) {
         return 0.0;
     }
-    return max(mlt_luminance(sample.value), 0.0);
+    return max(mlt_luminance(sample.value), 0.0) * mlt_importance[sample.pixel];
 }
 
 // This dispatch's item (bootstrap sample or chain) for `gid` (`dispatch_item`).

@@ -297,8 +297,8 @@ impl RenderSettings {
             }
         } else if self.mlt != crate::integrator::mlt::MltSettings::default() {
             return Err(crate::Error::Settings(format!(
-                "--mutations-per-pixel, --bootstrap-samples, --chains and --large-step are options of \
-                 --integrator mlt, not of --integrator {}",
+                "--mutations-per-pixel, --bootstrap-samples, --chains, --large-step and --mlt-target are \
+                 options of --integrator mlt, not of --integrator {}",
                 self.integrator
             )));
         }

@@ -47,6 +47,17 @@ pub enum SamplerChoice {
     Independent,
 }
 
+/// `--mlt-target` (`pathlight::integrator::mlt::MltTarget`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MltTargetChoice {
+    /// Each path's luminance weighed by its pixel's importance, 1 / √(Ī² + 0.01) with Ī the
+    /// image so far (Hoberock & Hart 2010): mutations spread so that dim pixels' relative
+    /// error falls with the bright ones'.
+    Relative,
+    /// Each path's luminance (Veach, pbrt-v4): mutations in proportion to brightness.
+    Luminance,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum BackendChoice {
     /// The fastest present: a hardware GPU if there is one; else (only a software Vulkan
@@ -151,6 +162,10 @@ pub struct SceneArgs {
     /// independent sample (default 0.1).
     #[arg(long, value_name = "P")]
     pub large_step: Option<f32>,
+    /// With --integrator mlt: what the chains' target weighs each path by (default:
+    /// relative).
+    #[arg(long, value_enum, value_name = "TARGET")]
+    pub mlt_target: Option<MltTargetChoice>,
     /// Camera index in the file (default: the first camera, or one framing the scene).
     #[arg(long)]
     pub camera: Option<usize>,
@@ -232,6 +247,11 @@ impl SceneArgs {
                     bootstrap_samples: self.bootstrap_samples,
                     chains: self.chains,
                     large_step_probability: self.large_step.unwrap_or(defaults.large_step_probability),
+                    target: match self.mlt_target {
+                        None => defaults.target,
+                        Some(MltTargetChoice::Relative) => pathlight::integrator::mlt::MltTarget::Relative,
+                        Some(MltTargetChoice::Luminance) => pathlight::integrator::mlt::MltTarget::Luminance,
+                    },
                 }
             },
             sampler: match self.sampler {

@@ -267,7 +267,7 @@ pub fn run(args: RenderArgs) -> Result<(), Error> {
     }
     if let Some(mlt) = session.mlt_stats() {
         eprintln!(
-            "mlt: {} passes, acceptance rate {:.3}; the variance channels are the spread across independent passes",
+            "mlt: {} passes, acceptance rate {:.3}; the variance channels are the spread across passes (their errors uncorrelated)",
             mlt.passes,
             mlt.acceptance_rate()
         );

@@ -7,7 +7,7 @@ use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, Str
 use crate::integrator::delta_view::camera_sees_only_delta_surfaces;
 use crate::integrator::irradiance_cache::{IrradianceCache, IrradianceCacheContext, IrradianceCacheStats};
 use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
-use crate::integrator::mlt::{mlt_pass, MltContext, MltStats};
+use crate::integrator::mlt::{importance_map, mlt_pass, remakes_importance, MltContext, MltStats, MltTarget};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
 use crate::integrator::photon::{photon_map_sample, PhotonMapSettings, PhotonMaps};
 use crate::integrator::sppm::{sppm_film, sppm_pass, SppmContext, SppmPixel, SppmSettings, SppmStats};
@@ -78,6 +78,9 @@ pub struct CpuBackend<'a> {
     irradiance_cache: Option<IrradianceCache>,
     /// What Metropolis's passes counted.
     mlt_stats: MltStats,
+    /// Metropolis's importance map, made from the film before passes 1, 2, 4, … (`None`:
+    /// none yet, or `--mlt-target luminance`).
+    mlt_importance: Option<Vec<f32>>,
 }
 
 /// A photon-mapping render's progressive state.
@@ -134,6 +137,7 @@ impl<'a> CpuBackend<'a> {
             photon_maps: None,
             irradiance_cache: None,
             mlt_stats: MltStats::default(),
+            mlt_importance: None,
         }
     }
 
@@ -456,7 +460,14 @@ impl CpuBackend<'_> {
     /// Metropolis's pass `k`: an independent estimate of the whole image (`mlt_pass`).
     fn render_mlt_pass(&mut self, k: u32, integrator: &IntegratorSettings) -> Vec<glam::Vec3> {
         let s = &self.settings;
+        if s.mlt.target == MltTarget::Relative
+            && remakes_importance(k)
+            && self.film.pixels.iter().any(|p| p.count > 0)
+        {
+            self.mlt_importance = Some(importance_map(&self.film.mean(), s.width, s.height));
+        }
         let ctx = MltContext {
+            importance: self.mlt_importance.as_deref(),
             scene: &self.scene,
             camera: &self.camera,
             integrator,
@@ -548,6 +559,7 @@ impl Backend for CpuBackend<'_> {
         self.bdpt_pass = None;
         self.bdpt_stats = BdptStats::default();
         self.mlt_stats = MltStats::default();
+        self.mlt_importance = None;
         if let Some(strategies) = self.strategies.as_mut() {
             *strategies = (StrategyImages::new(), 0);
         }

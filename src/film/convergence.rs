@@ -24,7 +24,7 @@ pub struct ConvergenceRow {
 }
 
 /// relMSE's denominator offset (benchmark protocol).
-const RELMSE_EPSILON: f64 = 1e-2;
+pub(crate) const RELMSE_EPSILON: f64 = 1e-2;
 
 /// The predicted relMSE of an image with per-pixel variance (`None` without variance).
 ///

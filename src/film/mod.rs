@@ -5,7 +5,7 @@
 
 mod aov;
 pub mod compare;
-mod convergence;
+pub(crate) mod convergence;
 mod diff_image;
 mod exr_io;
 mod image;

@@ -153,8 +153,8 @@ const KERNEL_BINDINGS: u32 = 27;
 /// Photon mapping's own bindings, after those: 27 to 31 (shaders/sppm.wgsl).
 const SPPM_BINDINGS: u32 = 5;
 
-/// Metropolis's own bindings, after those: 27 to 30 (shaders/mlt.wgsl).
-const MLT_BINDINGS: u32 = 4;
+/// Metropolis's own bindings, after those: 27 to 31 (shaders/mlt.wgsl).
+const MLT_BINDINGS: u32 = 5;
 
 /// The path tracer's own, after those: 27 to 29, the irradiance cache's placement passes
 /// (shaders/irradiance_cache.wgsl).

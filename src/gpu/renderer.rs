@@ -158,7 +158,7 @@ pub struct GpuBackend {
     mlt: Option<MltState>,
 }
 
-/// Metropolis's state on the device (shaders/mlt.wgsl's bindings 27 to 30) and on the host.
+/// Metropolis's state on the device (shaders/mlt.wgsl's bindings 27 to 31) and on the host.
 struct MltState {
     plan: crate::integrator::mlt::PassPlan,
     /// `MltChainGpu` per chain.
@@ -169,6 +169,9 @@ struct MltState {
     targets: wgpu::Buffer,
     /// Rays, accepted mutations and dropped samples as 64-bit totals.
     counters: wgpu::Buffer,
+    /// The importance map, one weight per pixel (1 until the host makes one from the film:
+    /// `crate::integrator::mlt::importance_map`).
+    importance: wgpu::Buffer,
     /// The pass whose splats `caustics` holds, and the factor that makes them its image.
     pass: Option<(u32, f32)>,
     /// Passes traced, passes whose bootstrap found no light, and mutations proposed since
@@ -180,6 +183,14 @@ struct MltState {
     /// keeps for pixel-samples (see `seconds_per_sample_bound`).
     seconds_per_mutation: Option<f64>,
     seconds_per_mutation_bound: Option<f64>,
+}
+
+impl MltState {
+    /// Queues the importance map back to 1 everywhere (no map: the plain luminance target).
+    fn clear_importance(&self, queue: &wgpu::Queue) {
+        let ones = vec![1.0f32; (self.importance.size() / 4) as usize];
+        queue.write_buffer(&self.importance, 0, bytemuck::cast_slice(&ones));
+    }
 }
 
 /// Numbers a chain keeps room for: `MLT_NUMBERS_PER_STREAM` for each of the three streams
@@ -570,6 +581,7 @@ impl GpuBackend {
                 numbers: zeroed("Metropolis primary samples", plan.chains * MLT_NUMBERS * number_bytes)?,
                 targets: zeroed("Metropolis bootstrap", plan.bootstrap * 4)?,
                 counters: zeroed("Metropolis counters", 6 * 4)?,
+                importance: zeroed("Metropolis importance", pixels * 4)?,
                 pass: None,
                 passes: 0,
                 passes_without_light: 0,
@@ -620,8 +632,11 @@ impl GpuBackend {
             );
         }
         if let Some(state) = &mlt {
-            bind_buffers
-                .extend([&state.chains, &state.numbers, &state.targets, &state.counters].map(|b| b.clone()));
+            bind_buffers.extend(
+                [&state.chains, &state.numbers, &state.targets, &state.counters, &state.importance]
+                    .map(|b| b.clone()),
+            );
+            state.clear_importance(&ctx.queue);
         }
         if settings.integrator == Integrator::Path {
             // The irradiance cache's placement passes (27 to 29): one unused element each until
@@ -1081,6 +1096,18 @@ impl GpuBackend {
         use crate::integrator::mlt::chain_starts;
         use crate::scene::layout::MltChainGpu;
         let kernel = self.kernel.clone();
+        if self.settings.mlt.target == crate::integrator::mlt::MltTarget::Relative
+            && crate::integrator::mlt::remakes_importance(k)
+        {
+            let film = self.read_back::<FilmPixel>(&self.film)?;
+            if film.iter().any(|p| p.count > 0) {
+                let means: Vec<glam::Vec3> = film.iter().map(|p| glam::Vec3::from(p.mean)).collect();
+                let map =
+                    crate::integrator::mlt::importance_map(&means, self.settings.width, self.settings.height);
+                let state = self.mlt.as_ref().expect("a Metropolis backend has its state");
+                self.ctx.queue.write_buffer(&state.importance, 0, bytemuck::cast_slice(&map));
+            }
+        }
         let state = self.mlt.as_ref().expect("a Metropolis backend has its state");
         let plan = state.plan;
         let base = self.frame_params(k, 1, 0, self.settings.height);
@@ -1779,6 +1806,7 @@ impl Backend for GpuBackend {
         }
         if let Some(state) = self.mlt.as_mut() {
             encoder.clear_buffer(&state.counters, 0, None);
+            state.clear_importance(&self.ctx.queue);
             state.pass = None;
             state.passes = 0;
             state.passes_without_light = 0;

@@ -694,11 +694,15 @@ impl Session {
             mlt: mlt_stats.map(|stats| {
                 let m = &self.settings.mlt;
                 format!(
-                    "{} mutations per pixel per pass, bootstrap {} per depth, chains {}, large-step probability {}, acceptance rate {:.3}, {} of {} passes found no light",
+                    "{} mutations per pixel per pass, bootstrap {} per depth, chains {}, large-step probability {}, target {}, acceptance rate {:.3}, {} of {} passes found no light",
                     m.mutations_per_pixel,
                     m.bootstrap_samples.map_or("default".into(), |n| n.to_string()),
                     m.chains.map_or("default".into(), |n| n.to_string()),
                     m.large_step_probability,
+                    match m.target {
+                        crate::integrator::mlt::MltTarget::Luminance => "luminance",
+                        crate::integrator::mlt::MltTarget::Relative => "relative",
+                    },
                     stats.acceptance_rate(),
                     stats.passes_without_light,
                     stats.passes

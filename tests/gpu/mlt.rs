@@ -27,7 +27,9 @@ const MLT_SCENES: &[&str] = &["cornell-box.gltf", "slit-room.gltf", "punctual.gl
 
 /// Same seed, same image to rounding (1e-3 relative, as `same_seed_agrees_within` states,
 /// in all but 2% of pixels), and the same chains: the same passes, proposals and dropped
-/// samples (none), and acceptances and rays within 1%. The 2% and the 1% are for a chain
+/// samples (none), and acceptances and rays within 1%. The second pass's chains weigh their
+/// targets by the importance map each backend made from its own film of the first (the
+/// default `--mlt-target relative`), which agree to rounding as the films do. The 2% and the 1% are for a chain
 /// that rounding parts from its twin: an acceptance decided by a random number within a few
 /// ulps of the acceptance ratio goes the other way, and the chain walks elsewhere from then
 /// on (at 4 passes, on the Cornell box one pixel of 1,024 differed by more than 1e-3 when
