@@ -7,7 +7,7 @@ use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, Str
 use crate::integrator::delta_view::camera_sees_only_delta_surfaces;
 use crate::integrator::irradiance_cache::{IrradianceCache, IrradianceCacheContext, IrradianceCacheStats};
 use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
-use crate::integrator::mlt::{importance_map, mlt_pass, remakes_importance, MltContext, MltStats, MltTarget};
+use crate::integrator::mlt::{importance_before_pass, mlt_pass, MltContext, MltStats};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
 use crate::integrator::photon::{photon_map_sample, PhotonMapSettings, PhotonMaps};
 use crate::integrator::sppm::{sppm_film, sppm_pass, SppmContext, SppmPixel, SppmSettings, SppmStats};
@@ -457,14 +457,16 @@ impl CpuBackend<'_> {
         values
     }
 
-    /// Metropolis's pass `k`: an independent estimate of the whole image (`mlt_pass`).
+    /// Metropolis's pass `k`: an estimate of the whole image (`mlt_pass`), its chains'
+    /// target weighed by the importance map the film of the passes before made.
     fn render_mlt_pass(&mut self, k: u32, integrator: &IntegratorSettings) -> Vec<glam::Vec3> {
         let s = &self.settings;
-        if s.mlt.target == MltTarget::Relative
-            && remakes_importance(k)
-            && self.film.pixels.iter().any(|p| p.count > 0)
-        {
-            self.mlt_importance = Some(importance_map(&self.film.mean(), s.width, s.height));
+        let film = &self.film;
+        let remade = importance_before_pass(s.mlt.target, k, (s.width, s.height), || {
+            Ok::<_, std::convert::Infallible>(film.pixels.clone())
+        });
+        if let Ok(Some(map)) = remade {
+            self.mlt_importance = Some(map);
         }
         let ctx = MltContext {
             importance: self.mlt_importance.as_deref(),

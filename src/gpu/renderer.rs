@@ -1096,17 +1096,14 @@ impl GpuBackend {
         use crate::integrator::mlt::chain_starts;
         use crate::scene::layout::MltChainGpu;
         let kernel = self.kernel.clone();
-        if self.settings.mlt.target == crate::integrator::mlt::MltTarget::Relative
-            && crate::integrator::mlt::remakes_importance(k)
-        {
-            let film = self.read_back::<FilmPixel>(&self.film)?;
-            if film.iter().any(|p| p.count > 0) {
-                let means: Vec<glam::Vec3> = film.iter().map(|p| glam::Vec3::from(p.mean)).collect();
-                let map =
-                    crate::integrator::mlt::importance_map(&means, self.settings.width, self.settings.height);
-                let state = self.mlt.as_ref().expect("a Metropolis backend has its state");
-                self.ctx.queue.write_buffer(&state.importance, 0, bytemuck::cast_slice(&map));
-            }
+        let size = (self.settings.width, self.settings.height);
+        let remade =
+            crate::integrator::mlt::importance_before_pass(self.settings.mlt.target, k, size, || {
+                self.read_back::<FilmPixel>(&self.film)
+            })?;
+        if let Some(map) = remade {
+            let state = self.mlt.as_ref().expect("a Metropolis backend has its state");
+            self.ctx.queue.write_buffer(&state.importance, 0, bytemuck::cast_slice(&map));
         }
         let state = self.mlt.as_ref().expect("a Metropolis backend has its state");
         let plan = state.plan;

@@ -69,7 +69,7 @@ use rayon::prelude::*;
 use super::bdpt::{strategy_sample, BdptContext, Stream, StreamNumbers, Subpaths, WalkNumbers};
 use super::IntegratorSettings;
 use crate::sampling::Rng;
-use crate::scene::layout::Camera;
+use crate::scene::layout::{Camera, FilmPixel};
 use crate::scene::luminance;
 use crate::scene::FlatScene;
 
@@ -146,6 +146,27 @@ pub const IMPORTANCE_DARK_FLOOR: f32 = crate::film::convergence::RELMSE_EPSILON 
 /// map from twice the passes of the last, a handful of read-backs over any render.
 pub fn remakes_importance(k: u32) -> bool {
     k.is_power_of_two()
+}
+
+/// The importance map to use from pass `k` on under `target`, made from the film `film`
+/// returns (read only when one is due: [`remakes_importance`]), or `None` where the map
+/// stays as it is: the luminance target, a pass that makes none, or a film without a
+/// sample yet. Both backends decide by this, each reading its own film.
+pub fn importance_before_pass<E>(
+    target: MltTarget,
+    k: u32,
+    (width, height): (u32, u32),
+    film: impl FnOnce() -> Result<Vec<FilmPixel>, E>,
+) -> Result<Option<Vec<f32>>, E> {
+    if target != MltTarget::Relative || !remakes_importance(k) {
+        return Ok(None);
+    }
+    let film = film()?;
+    if film.iter().all(|p| p.count == 0) {
+        return Ok(None);
+    }
+    let means: Vec<Vec3> = film.iter().map(|p| Vec3::from(p.mean)).collect();
+    Ok(Some(importance_map(&means, width, height)))
 }
 
 /// The importance map of an image `means` (row-major, `width` × `height`): per pixel
@@ -874,10 +895,28 @@ mod tests {
         assert!(bad.iter().all(|&x| (x - most).abs() < 1e-6 * most), "{bad:?}");
     }
 
-    /// The map is remade before passes 1, 2, 4, 8, …, never before the first.
+    /// The map is remade before passes 1, 2, 4, 8, …, never before the first; the film is
+    /// read only then, under the relative target, and a film without a sample makes none.
     #[test]
     fn the_importance_map_is_remade_at_powers_of_two() {
         let remade: Vec<u32> = (0..40).filter(|&k| remakes_importance(k)).collect();
         assert_eq!(remade, [1, 2, 4, 8, 16, 32]);
+
+        let lit = FilmPixel { mean: [0.5; 3], count: 2, ..FilmPixel::default() };
+        let made = |target, k, film: Vec<FilmPixel>| {
+            let mut read = false;
+            let map = importance_before_pass(target, k, (2, 1), || {
+                read = true;
+                Ok::<_, ()>(film)
+            })
+            .unwrap();
+            (map, read)
+        };
+        assert_eq!(made(MltTarget::Relative, 3, vec![lit; 2]), (None, false));
+        assert_eq!(made(MltTarget::Luminance, 4, vec![lit; 2]), (None, false));
+        assert_eq!(made(MltTarget::Relative, 4, vec![FilmPixel::default(); 2]), (None, true));
+        let (map, read) = made(MltTarget::Relative, 4, vec![lit; 2]);
+        assert!(read);
+        assert_eq!(map, Some(importance_map(&[Vec3::splat(0.5); 2], 2, 1)));
     }
 }
