@@ -28,6 +28,13 @@ const PLANE_TOLERANCE: f32 = 0.1;
 const STEP_TOLERANCE: f32 = 1e-3;
 const PLANE_POSITION_ERROR: f32 = 3.814697265625e-6;
 
+// Twin of `plane_tolerances`: (tolerance, step) for a gather within `radius` where the larger
+// coordinate's magnitude is `magnitude`.
+fn sppm_plane_tolerances(radius: f32, magnitude: f32) -> vec2<f32> {
+    let tolerance = PLANE_TOLERANCE * radius;
+    return vec2<f32>(tolerance, min(max(STEP_TOLERANCE * radius, PLANE_POSITION_ERROR * magnitude), tolerance));
+}
+
 // The words of `sppm_grid` before its slots: this pass's photon records (appended by
 // `sppm_trace_photons`), the cell edge (f32 bits), running totals the host reads for
 // `SppmStats` (photon rays, stored and dropped records, each a 64-bit count in two words,
@@ -577,8 +584,9 @@ fn sppm_photon_flux(i: u32, si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32,
         let lower = min(photon_height, point_height);
         let upper = max(photon_height, point_height);
         let magnitude = max(max(max(abs(si.p.x), abs(si.p.y)), abs(si.p.z)), max(max(abs(p.x), abs(p.y)), abs(p.z)));
-        let tolerance = PLANE_TOLERANCE * radius;
-        let step = min(max(STEP_TOLERANCE * radius, PLANE_POSITION_ERROR * magnitude), tolerance);
+        let bounds = sppm_plane_tolerances(radius, magnitude);
+        let tolerance = bounds.x;
+        let step = bounds.y;
         if (!(lower >= -step || (lower >= -tolerance && upper <= step))) {
             return;
         }
@@ -716,17 +724,14 @@ fn gather_triangle_area(t: Triangle, region: GatherRegion) -> f32 {
     var count = 3u;
     if (!region.transmits) {
         // The bounds on the photon's height above the point's plane (the CPU twin explains).
-        var lower = region.step;
+        var lower = region.tolerance;
         var slab = false;
         if (height > region.step) {
             lower = region.step;
-        } else if (height >= -region.step) {
-            lower = region.tolerance;
-        } else if (height >= -region.tolerance) {
-            lower = region.tolerance;
-            slab = true;
-        } else {
+        } else if (height < -region.tolerance) {
             return 0.0;
+        } else if (height < -region.step) {
+            slab = true;
         }
         count = gather_clip(&polygon, count, region.n_point, lower);
         if (slab) {
@@ -785,13 +790,18 @@ fn gather_area(region: GatherRegion) -> f32 {
 
 // Twin of `coverage_correction`: πr² over the area the gather at `si` draws from.
 fn sppm_coverage_correction(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> f32 {
-    let ng = si.n_geometric;
-    let n_point = select(-ng, ng, dot(si.wo_world, ng) > 0.0);
-    let tolerance = PLANE_TOLERANCE * radius;
+    let winding_side = select(-1.0, 1.0, dot(si.wo_world, si.n_geometric) > 0.0);
     let magnitude = max(max(abs(si.p.x), abs(si.p.y)), abs(si.p.z));
-    let step = min(max(STEP_TOLERANCE * radius, PLANE_POSITION_ERROR * magnitude), tolerance);
-    let winding_side = select(-1.0, 1.0, dot(si.wo_world, ng) > 0.0);
-    let region = GatherRegion(si.p, n_point, radius, tolerance, step, winding_side, has_rough_transmission(bsdf));
+    let bounds = sppm_plane_tolerances(radius, magnitude);
+    let region = GatherRegion(
+        si.p,
+        si.n_geometric * winding_side,
+        radius,
+        bounds.x,
+        bounds.y,
+        winding_side,
+        has_rough_transmission(bsdf),
+    );
     let disk = PI * radius * radius;
     return disk / clamp(gather_area(region), disk / MAX_COVERAGE_CORRECTION, disk);
 }

@@ -47,7 +47,6 @@ pub fn camera_sees_only_delta_surfaces(scene: &FlatScene, camera: &Camera) -> bo
     let eye = Vec3::from(camera.position).as_dvec3();
     let axes = [camera.right, camera.up, camera.forward].map(|a| Vec3::from(a).as_dvec3());
     let (tx, ty) = (camera.half_width as f64, camera.half_height as f64);
-    let occluder: Vec<bool> = scene.materials.iter().map(|m| m.flags & MATERIAL_DELTA_ONLY != 0).collect();
     let mut nearest_other = f64::INFINITY;
     let mut occluders: Vec<(f64, Vec<DVec3>)> = Vec::new();
     for tri in &scene.triangles {
@@ -60,7 +59,7 @@ pub fn camera_sees_only_delta_surfaces(scene: &FlatScene, camera: &Camera) -> bo
             continue;
         }
         let (near, far) = polygon.iter().fold((f64::INFINITY, 0.0f64), |(n, f), p| (n.min(p.z), f.max(p.z)));
-        if occluder[tri.material as usize] {
+        if scene.materials[tri.material as usize].flags & MATERIAL_DELTA_ONLY != 0 {
             occluders.push((far, polygon));
         } else {
             nearest_other = nearest_other.min(near);
