@@ -212,13 +212,20 @@ impl Vertex {
         }
     }
 
-    /// The surface as a path arriving from direction `w` (unit, world, pointing away from
-    /// the surface) sees it, with its BSDF built for `w`: the vertex's own record when `w`
-    /// is the direction its subpath arrived from.
+    /// The surface as a path arriving from direction `w` sees it ([`Surface::seen_from`]).
     fn seen_from(&self, scene: &FlatScene, w: Vec3) -> Option<Seen> {
-        let s = self.surface.as_ref()?;
+        Some(self.surface.as_ref()?.seen_from(scene, w))
+    }
+}
+
+impl Surface {
+    /// The surface as a path arriving from direction `w` (unit, world, pointing away from
+    /// the surface) sees it, with its BSDF built for `w`: its own record when `w` is the
+    /// direction its subpath arrived from.
+    fn seen_from(&self, scene: &FlatScene, w: Vec3) -> Seen {
+        let s = self;
         if w == s.si.wo_world {
-            return Some(Seen { si: s.si, bsdf: s.bsdf });
+            return Seen { si: s.si, bsdf: s.bsdf };
         }
         let same_side = (w.dot(s.si.n_geometric) > 0.0) == s.si.front_face;
         if s.view_independent && same_side {
@@ -226,14 +233,14 @@ impl Vertex {
             si.wo_world = w;
             si.wo = si.frame.to_local(w);
             let bsdf = GltfBsdf::new(&s.material, si.wo, si.front_face, si.coat_normal);
-            return Some(Seen { si, bsdf });
+            return Seen { si, bsdf };
         }
         let ray = Ray { origin: s.si.p + w, direction: -w, t_max: f32::MAX };
         let hit = ClosestHit { triangle: s.hit.triangle, hit: TriangleHit { t: 1.0, ..s.hit.hit } };
         let si = surface_interaction(scene, &ray, &hit, 0.0);
         let material = vertex_material(scene, &si);
         let bsdf = GltfBsdf::new(&material, si.wo, si.front_face, si.coat_normal);
-        Some(Seen { si, bsdf })
+        Seen { si, bsdf }
     }
 }
 
@@ -662,13 +669,10 @@ impl Walk {
         from: &Vertex,
         rays: &mut u64,
     ) -> Option<Vertex> {
-        let scene = ctx.scene;
-        *rays += 1;
-        let alpha_seed = if scene.features.alpha { numbers.u32() } else { 0 };
-        let Some(hit) = scene.intersect_closest(&self.ray, alpha_seed) else {
+        let Some(surface) = self.trace_surface(ctx, numbers, rays) else {
             // The camera subpath may end in the environment (s = 0 sees it); a light
             // subpath that leaves the scene ends.
-            let env = &scene.environment.params;
+            let env = &ctx.scene.environment.params;
             return (self.transport == Transport::Radiance && env.present != 0).then(|| {
                 Vertex::endpoint(
                     Kind::Environment,
@@ -680,6 +684,36 @@ impl Walk {
                 )
             });
         };
+        let mut v = Vertex {
+            kind: Kind::Surface,
+            p: surface.si.p,
+            n: surface.si.n_geometric,
+            light: surface.si.emitter,
+            surface: Some(surface),
+            beta: self.beta,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            delta: false,
+        };
+        v.pdf_fwd = from.convert_density(self.pdf_solid_angle, &v);
+        Some(v)
+    }
+
+    /// Traces the ray: the surface it reaches, `None` where it leaves the scene. The walk's
+    /// throughput then includes the attenuation inside a volume up to the surface. Photon
+    /// tracing (`super::sppm`) walks by this and [`Self::scatter_surface`] alone: it keeps
+    /// no vertices and no densities.
+    #[inline(always)]
+    pub(crate) fn trace_surface(
+        &mut self,
+        ctx: &BdptContext,
+        numbers: &mut impl WalkNumbers,
+        rays: &mut u64,
+    ) -> Option<Surface> {
+        let scene = ctx.scene;
+        *rays += 1;
+        let alpha_seed = if scene.features.alpha { numbers.u32() } else { 0 };
+        let hit = scene.intersect_closest(&self.ray, alpha_seed)?;
         let si = surface_interaction(scene, &self.ray, &hit, 0.0);
         let material = vertex_material(scene, &si);
         if material.flags & MATERIAL_VOLUME != 0 && !si.front_face {
@@ -690,19 +724,7 @@ impl Walk {
         let view_independent = tri.flags & TRIANGLE_HAS_NORMALS == 0
             && material.normal_texture == INVALID_INDEX
             && (material.clearcoat <= 0.0 || material.clearcoat_normal_texture == INVALID_INDEX);
-        let mut v = Vertex {
-            kind: Kind::Surface,
-            p: si.p,
-            n: si.n_geometric,
-            surface: Some(Surface { si, material, bsdf, hit, view_independent }),
-            light: si.emitter,
-            beta: self.beta,
-            pdf_fwd: 0.0,
-            pdf_rev: 0.0,
-            delta: false,
-        };
-        v.pdf_fwd = from.convert_density(self.pdf_solid_angle, &v);
-        Some(v)
+        Some(Surface { si, material, bsdf, hit, view_independent })
     }
 
     /// Samples the BSDF at `v`, vertex `here` of its subpath (reached from `from`), and plays
@@ -716,6 +738,26 @@ impl Walk {
         from: &Vertex,
         here: usize,
     ) -> Option<f32> {
+        let scattered = self.scatter_surface(ctx, numbers, v.surface.as_ref()?, here, true)?;
+        v.delta = scattered.delta;
+        let rev = if scattered.delta { 0.0 } else { v.convert_density(scattered.pdf_reverse, from) };
+        scattered.goes_on.then_some(rev)
+    }
+
+    /// [`Self::scatter`] at surface `s`, vertex `here` of its subpath, without the vertices:
+    /// `None` where the walk ends before a direction is chosen (the depth limit, a sample
+    /// that fails or carries nothing), else the lobe's kind, the reverse density per solid
+    /// angle (computed only if `reverse_density`), and whether roulette let the walk go on
+    /// along the new ray.
+    #[inline(always)]
+    pub(crate) fn scatter_surface(
+        &mut self,
+        ctx: &BdptContext,
+        numbers: &mut impl WalkNumbers,
+        s: &Surface,
+        here: usize,
+        reverse_density: bool,
+    ) -> Option<Scattered> {
         let (scene, settings) = (ctx.scene, ctx.settings);
         // Scattering here makes paths of at least `here` scattering events (camera side:
         // x₁ … x_here) or `here + 1` (light side: y₁ … y_here and the join).
@@ -723,7 +765,6 @@ impl Walk {
         if least_depth > settings.max_depth.min(MAX_BOUNCES_GUARD) {
             return None;
         }
-        let s = v.surface.as_ref()?;
         let (si, bsdf) = (&s.si, &s.bsdf);
         let u_lobe = numbers.lobe(bsdf.chooses_a_lobe());
         let u_dir = numbers.direction();
@@ -744,12 +785,14 @@ impl Walk {
                 (0.0, bs.weight * (bs.eta_scale * shading))
             }
             (Transport::Radiance, false) => {
-                (v.seen_from(scene, w_next).map_or(0.0, |seen| seen.pdf(si.wo_world)), bs.weight)
+                let pdf_reverse =
+                    if reverse_density { s.seen_from(scene, w_next).pdf(si.wo_world) } else { 0.0 };
+                (pdf_reverse, bs.weight)
             }
             (Transport::Importance, false) => {
                 // The value is the BSDF built for the camera's side, `w_next` (the module's
                 // "Adjoint"), over the density it was sampled with from the light's side.
-                let seen = v.seen_from(scene, w_next)?;
+                let seen = s.seen_from(scene, w_next);
                 let f_cos = seen.f_cos(si.wo_world);
                 let cos_in = si.wo_world.dot(ng).abs();
                 let weight = if cos_in > 0.0 {
@@ -757,7 +800,7 @@ impl Walk {
                 } else {
                     Vec3::ZERO
                 };
-                (seen.pdf(si.wo_world), weight)
+                (if reverse_density { seen.pdf(si.wo_world) } else { 0.0 }, weight)
             }
         };
         let (p, p_error) = (si.p, si.p_error);
@@ -765,9 +808,8 @@ impl Walk {
         if !self.beta.is_finite() || self.beta.max_element() <= 0.0 {
             return None;
         }
-        v.delta = bs.is_delta;
+        let delta = bs.is_delta;
         self.pdf_solid_angle = if bs.is_delta { 0.0 } else { bs.pdf_solid_angle };
-        let rev = if bs.is_delta { 0.0 } else { v.convert_density(pdf_reverse, from) };
         self.eta_scale *= bs.eta_scale;
         if !bs.is_delta {
             self.non_delta_depth += 1;
@@ -782,13 +824,29 @@ impl Walk {
         };
         if let Some(q) = survival {
             if q <= 0.0 || numbers.roulette() >= q {
-                return None;
+                return Some(Scattered { delta, pdf_reverse, goes_on: false });
             }
             self.beta /= q;
         }
         self.ray = spawn_ray(p, p_error, ng, w_next);
-        Some(rev)
+        Some(Scattered { delta, pdf_reverse, goes_on: true })
     }
+
+    /// The walk's throughput so far (the next vertex's, before its own scattering).
+    pub(crate) fn beta(&self) -> Vec3 {
+        self.beta
+    }
+}
+
+/// A scattering event of a [`Walk`] ([`Walk::scatter_surface`]).
+pub(crate) struct Scattered {
+    /// By a delta lobe.
+    pub(crate) delta: bool,
+    /// The density per solid angle of scattering back along the path's arriving direction,
+    /// from the new direction's side (0 after a delta lobe, or where not asked for).
+    pdf_reverse: f32,
+    /// Roulette let the walk go on along the new ray.
+    pub(crate) goes_on: bool,
 }
 
 /// How long a light subpath is.

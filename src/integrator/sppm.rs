@@ -605,6 +605,13 @@ pub(crate) fn trace_photons(
 }
 
 /// One photon's walk: a photon at every surface with a non-delta lobe that `kind` keeps.
+///
+/// BDPT's light subpath walk by its surface-level steps
+/// ([`super::bdpt::Walk::trace_surface`], [`super::bdpt::Walk::scatter_surface`]): a photon
+/// keeps no vertex and needs no reverse density, and copying BDPT's 576-byte vertices, two
+/// or three times a bounce, was 14% of the photons' time in a profile (bench/RESULTS.md,
+/// "Photon mapping"). Draws the same numbers in the same order as BDPT's walk, so the
+/// kernel's twin still agrees.
 fn trace_photon(
     ctx: &BdptContext,
     rng: &mut Rng,
@@ -612,30 +619,29 @@ fn trace_photon(
     photons: &mut Vec<Photon>,
     rays: &mut u64,
 ) {
-    let Some((mut from, mut walk)) = light_subpath_origin(ctx.scene, rng) else { return };
+    let Some((_, mut walk)) = light_subpath_origin(ctx.scene, rng) else { return };
     // Every bounce so far was by a delta lobe.
     let mut delta_so_far = true;
     for here in 1.. {
-        let Some(mut v) = walk.trace(ctx, rng, &from, rays) else { return };
-        if let Some(surface) = &v.surface {
-            let kept = match kind {
-                PhotonKind::Indirect => here >= 2,
-                PhotonKind::All => true,
-                PhotonKind::Caustic => here >= 2 && delta_so_far,
-            };
-            if kept && surface.bsdf.has_non_delta() && v.beta.is_finite() {
-                photons.push(Photon { p: v.p, wi: surface.si.wo_world, beta: v.beta, n: v.n });
-            }
+        let Some(surface) = walk.trace_surface(ctx, rng, rays) else { return };
+        let kept = match kind {
+            PhotonKind::Indirect => here >= 2,
+            PhotonKind::All => true,
+            PhotonKind::Caustic => here >= 2 && delta_so_far,
+        };
+        let beta = walk.beta();
+        if kept && surface.bsdf.has_non_delta() && beta.is_finite() {
+            let si = &surface.si;
+            photons.push(Photon { p: si.p, wi: si.wo_world, beta, n: si.n_geometric });
         }
-        if walk.scatter(ctx, rng, &mut v, &from, here).is_none() {
-            return;
+        match walk.scatter_surface(ctx, rng, &surface, here, false) {
+            Some(scattered) if scattered.goes_on => delta_so_far &= scattered.delta,
+            _ => return,
         }
-        delta_so_far &= v.delta;
         if kind == PhotonKind::Caustic && !delta_so_far {
             // No later landing can be a caustic's.
             return;
         }
-        from = v;
     }
 }
 
