@@ -21,10 +21,6 @@
 
 // Twin of SPPM_ALPHA.
 const SPPM_ALPHA: f32 = 2.0 / 3.0;
-// Twin of SPPM_ALPHA_ONE_PLANE.
-const SPPM_ALPHA_ONE_PLANE: f32 = 0.75;
-// Twin of ONE_PLANE_AREA_RAMP.
-const ONE_PLANE_AREA_RAMP: f32 = 0.05;
 // Twin of PHOTON_STREAM.
 const PHOTON_STREAM: u32 = 0xfffffffeu;
 // Twins of PLANE_TOLERANCE, STEP_TOLERANCE and PLANE_POSITION_ERROR (32 f32::EPSILON).
@@ -792,15 +788,8 @@ fn gather_area(region: GatherRegion) -> f32 {
     return area;
 }
 
-// Twin of `GatherCoverage`: the flux factor and the radius update's α.
-struct GatherCoverage {
-    flux_factor: f32,
-    alpha: f32,
-}
-
-// Twin of `gather_coverage`: from the area the gather at `si` draws from, πr² over it
-// (where it is less than πr²) and the α, 0.75 on one plane, 2/3 off it.
-fn sppm_gather_coverage(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> GatherCoverage {
+// Twin of `coverage_correction`: πr² over the area the gather at `si` draws from.
+fn sppm_coverage_correction(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> f32 {
     let winding_side = select(-1.0, 1.0, dot(si.wo_world, si.n_geometric) > 0.0);
     let magnitude = max(max(abs(si.p.x), abs(si.p.y)), abs(si.p.z));
     let bounds = sppm_plane_tolerances(radius, magnitude);
@@ -814,12 +803,7 @@ fn sppm_gather_coverage(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> 
         has_rough_transmission(bsdf),
     );
     let disk = PI * radius * radius;
-    let found = gather_area(region);
-    let off_plane = min(abs(found / disk - 1.0) / ONE_PLANE_AREA_RAMP, 1.0);
-    return GatherCoverage(
-        disk / clamp(found, disk / MAX_COVERAGE_CORRECTION, disk),
-        SPPM_ALPHA_ONE_PLANE + (SPPM_ALPHA - SPPM_ALPHA_ONE_PLANE) * off_plane,
-    );
+    return disk / clamp(gather_area(region), disk / MAX_COVERAGE_CORRECTION, disk);
 }
 
 // Twin of `PhotonGrid::gather`. Cells may share a slot: each cell's run is read, and a
@@ -879,13 +863,12 @@ fn sppm_gather(@builtin(global_invocation_id) gid: vec3<u32>) {
         let surface = sppm_surface(vp);
         let si = surface.si;
         var gathered = sppm_gather_photons(SppmMap(0u, 0u), si, surface.bsdf, state.radius);
-        let coverage = sppm_gather_coverage(si, surface.bsdf, state.radius);
-        gathered.phi *= coverage.flux_factor;
+        gathered.phi *= sppm_coverage_correction(si, surface.bsdf, state.radius);
         let area = PI * state.radius * state.radius;
         estimate += vp.beta * gathered.phi / (f32(frame.sppm_photons) * area);
         if (gathered.m > 0u) {
             let m = f32(gathered.m);
-            let n = state.photon_count + coverage.alpha * m;
+            let n = state.photon_count + SPPM_ALPHA * m;
             let radius = state.radius * sqrt(n / (state.photon_count + m));
             let shrink = (radius / state.radius) * (radius / state.radius);
             state.tau = (state.tau + vp.beta * gathered.phi) * shrink;

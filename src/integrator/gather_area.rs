@@ -12,7 +12,7 @@
 //! each triangle inside the gather's sphere that the gather's tests accept (the side of the
 //! winding its photons arrived on, and `super::sppm`'s `facing_each_other`), on materials
 //! where photons are stored. Where it is less than πr² the gathered flux is scaled by πr²
-//! over it (`super::sppm::GatherCoverage`, which says why a larger area is left alone):
+//! over it (`super::sppm::coverage_correction`, which says why a larger area is left alone):
 //! the boundary bias every kernel density estimate has at the edge of its domain, taken
 //! out by measuring the boundary rather than by shrinking the disk. It needs no rays and adds no
 //! noise. Where the surface is a plane wider than the sphere the area is πr² to rounding and

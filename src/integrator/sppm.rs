@@ -31,15 +31,13 @@
 //!    f(ω_o, ω_p) |ω_p·n_s| / |ω_p·n_g| (the last ratio turns flux per unit of geometric area
 //!    into the shading normal's cosine), M of them. Where the surface the gather reads within
 //!    r is less than the disk πr² (past a convex edge, at a silhouette) Φ is scaled by πr²
-//!    over that area, measured exactly from the triangles ([`GatherCoverage`],
+//!    over that area, measured exactly from the triangles ([`coverage_correction`],
 //!    `super::gather_area`), so that it is flux over the disk as the update assumes. Then
-//!    pbrt's update: N' = N + αM, r' = r √(N'/(N + M)), τ' = (τ + β Φ) r'²/r², with α = 2/3,
-//!    up to 0.75 where that area is πr², the disk on one plane ([`SPPM_ALPHA_ONE_PLANE`]).
+//!    pbrt's update with α = 2/3: N' = N + αM, r' = r √(N'/(N + M)), τ' = (τ + β Φ) r'²/r².
 //!
 //! After n passes of N_p photons a pixel is L = Σ L_direct / n + τ / (n N_p π r²). Its bias
 //! (the blur of the radius) falls as r shrinks; r² falls roughly as n^(α−1) where photons
-//! are dense (Knaus & Zwicker 2011, "Progressive Photon Mapping: A Probabilistic Approach"),
-//! for either α.
+//! are dense (Knaus & Zwicker 2011, "Progressive Photon Mapping: A Probabilistic Approach").
 //! The coverage correction shrinks with r too (it is 1 wherever the surface within r is a
 //! plane), so the estimate stays consistent.
 //!
@@ -94,28 +92,6 @@ use crate::scene::FlatScene;
 /// On the 128² Cornell box at 20 s, 0.5 and 0.8 gave 2.3 and 1.06 times its relMSE
 /// (bench/RESULTS.md, "Where SPPM's Cornell-box error comes from").
 pub const SPPM_ALPHA: f32 = 2.0 / 3.0;
-
-/// α where the gather's disk lies on the visible point's own surface alone: the area it
-/// draws its photons from is πr², no edge, corner or other surface within r. There the
-/// radius's bias is only the irradiance's curvature across the disk, small on walls and
-/// floors, so the radius may shrink more slowly and keep more photons (less noise); edges
-/// and corners, whose bias is what shrinking removes, keep [`SPPM_ALPHA`], and α passes
-/// from one to the other as the area leaves πr² ([`ONE_PLANE_AREA_RAMP`]). Any α below 1
-/// keeps the estimate consistent (Knaus & Zwicker 2011); choosing it per pixel by the bias
-/// each pixel can have is, coarsely, what adaptive progressive photon mapping does
-/// (Kaplanyan & Dachsbacher 2013). On the 128² Cornell box at 20 s, 0.75 gave 1.40× less
-/// relMSE than 2/3 everywhere (0.8 with a step 1.45×, 0.9 1.49×, more of it bias). What
-/// the area cannot see is the irradiance's own curvature: a caustic on a flat floor blurs
-/// longer. Behind the glass pane 0.75 cost 6% against a long SPPM render and 0.8 28%
-/// (bench/RESULTS.md, "A slower radius where the disk lies on one plane").
-pub const SPPM_ALPHA_ONE_PLANE: f32 = 0.75;
-
-/// The relative difference from πr² of a gather's area at which α has come down from
-/// [`SPPM_ALPHA_ONE_PLANE`] (at πr²) to [`SPPM_ALPHA`], linearly. Continuous, so that the
-/// backends' rounding of the area moves α by as little: a threshold let the two take
-/// different α's on a tessellated sphere, whose facets bend the disk off πr² by about the
-/// rounding, and their radii part.
-pub const ONE_PLANE_AREA_RAMP: f32 = 0.05;
 
 /// The row of [`Rng::new`] photons draw from: no pixel has it (fewer than 2²⁸ rows), and
 /// the light tracer's paths have `LIGHT_PATH_STREAM` (u32::MAX).
@@ -338,12 +314,11 @@ pub fn sppm_pass(
             pixel.direct += path.direct;
             if let Some(vp) = &path.visible {
                 let (phi, m) = grid.gather(&photons, &vp.si, &vp.bsdf, pixel.radius);
-                let coverage = gather_coverage(ctx.scene, &vp.si, &vp.bsdf, pixel.radius);
-                let phi = phi * coverage.flux_factor;
+                let phi = phi * coverage_correction(ctx.scene, &vp.si, &vp.bsdf, pixel.radius);
                 let area = std::f32::consts::PI * pixel.radius * pixel.radius;
                 estimate += vp.beta * phi / (photon_count * area);
                 if m > 0 {
-                    let n = pixel.photon_count + coverage.alpha * m as f32;
+                    let n = pixel.photon_count + SPPM_ALPHA * m as f32;
                     let radius = pixel.radius * (n / (pixel.photon_count + m as f32)).sqrt();
                     let shrink = (radius / pixel.radius) * (radius / pixel.radius);
                     pixel.tau = (pixel.tau + vp.beta * phi) * shrink;
@@ -796,34 +771,23 @@ impl PhotonGrid {
     }
 }
 
-/// What the area a gather at `si` within `radius` draws its photons from ([`gather_area`])
-/// says about that gather (step 4 of the module).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct GatherCoverage {
-    /// Turns the flux the gather found into flux over the disk πr²: πr² over the area,
-    /// where the area is smaller than the disk, at most [`MAX_COVERAGE_CORRECTION`]; else 1.
-    ///
-    /// Where the area is larger, at a concave edge or corner (the disk's part past the
-    /// edge is less than the part of the meeting surface within r, which the gather also
-    /// reads), the factor stays 1: taking it below 1 there made the Cornell box's room
-    /// edges 0.5–1% dark (irradiance falls towards a concave corner, and all of the meeting
-    /// surface's part lies within r of it, so its photons weigh the average towards the
-    /// dark corner), where the uncorrected estimate is within ±0.6% (bench/RESULTS.md,
-    /// "Photon mapping").
-    pub(crate) flux_factor: f32,
-    /// The radius update's α: [`SPPM_ALPHA_ONE_PLANE`] where the area is πr² (the disk on
-    /// one plane), [`SPPM_ALPHA`] where it differs by [`ONE_PLANE_AREA_RAMP`] or more, and
-    /// in between linearly.
-    pub(crate) alpha: f32,
-}
-
-/// The coverage of the gather at `si` within `radius` ([`GatherCoverage`]).
-pub(crate) fn gather_coverage(
+/// The factor that turns the flux a gather at `si` within `radius` found into flux over the
+/// disk πr² (step 4 of the module): πr² over the area it draws its photons from
+/// ([`gather_area`]), where that area is smaller than the disk, at most
+/// [`MAX_COVERAGE_CORRECTION`]; else 1.
+///
+/// Where the area is larger, at a concave edge or corner (the disk's part past the edge is
+/// less than the part of the meeting surface within r, which the gather also reads), the
+/// factor stays 1: taking it below 1 there made the Cornell box's room edges 0.5–1% dark
+/// (irradiance falls towards a concave corner, and all of the meeting surface's part lies
+/// within r of it, so its photons weigh the average towards the dark corner), where the
+/// uncorrected estimate is within ±0.6% (bench/RESULTS.md, "Photon mapping").
+pub(crate) fn coverage_correction(
     scene: &FlatScene,
     si: &SurfaceInteraction,
     bsdf: &GltfBsdf,
     radius: f32,
-) -> GatherCoverage {
+) -> f32 {
     // +1 where the camera ray came from the front of the point's winding.
     let winding_side = if si.wo_world.dot(si.n_geometric) > 0.0 { 1.0 } else { -1.0 };
     let (tolerance, step) = plane_tolerances(radius, si.p.abs().max_element());
@@ -838,11 +802,7 @@ pub(crate) fn gather_coverage(
     };
     let disk = std::f32::consts::PI * radius * radius;
     let found = gather_area(&scene.nodes, &scene.triangles, &scene.materials, &region);
-    let off_plane = ((found / disk - 1.0).abs() / ONE_PLANE_AREA_RAMP).min(1.0);
-    GatherCoverage {
-        flux_factor: disk / found.clamp(disk / MAX_COVERAGE_CORRECTION, disk),
-        alpha: SPPM_ALPHA_ONE_PLANE + (SPPM_ALPHA - SPPM_ALPHA_ONE_PLANE) * off_plane,
-    }
+    disk / found.clamp(disk / MAX_COVERAGE_CORRECTION, disk)
 }
 
 /// The share of the gather radius by which a photon may lie behind the visible point's
@@ -934,30 +894,6 @@ mod tests {
 
     fn photon_at(p: Vec3) -> Photon {
         Photon { p, wi: Vec3::Z, beta: Vec3::ONE, n: Vec3::Z }
-    }
-
-    /// A gather where the Cornell box camera's central ray meets a surface: within a
-    /// thousandth of the scene's radius the disk lies on that surface alone (the slower α,
-    /// no correction but rounding); within the scene's whole radius it reaches past the
-    /// surface's edges onto the surfaces meeting it (the update's own α).
-    #[test]
-    fn a_disk_on_one_plane_shrinks_more_slowly_than_one_across_an_edge() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf");
-        let (scene, _) = crate::scene::load(&path).unwrap();
-        let view = crate::scene::ViewSettings { camera: None, aspect: 1.0 };
-        let scene = FlatScene::build(&scene, &view).unwrap();
-        let ray = generate_camera_ray(&scene.camera, 64, 64, 32, 32, glam::Vec2::splat(0.5));
-        let hit = scene.intersect_closest(&ray, 0).expect("the central ray meets the box");
-        let si = surface_interaction(&scene, &ray, &hit, 0.0);
-        let material = &scene.materials[si.material as usize];
-        let bsdf = GltfBsdf::new(material, si.wo, si.front_face, si.coat_normal);
-        let small = gather_coverage(&scene, &si, &bsdf, 1e-3 * scene.scene_radius);
-        // The area's f32 rounding, summed from triangle pieces: a few 1e-6 of the disk,
-        // which moves α by as much over ONE_PLANE_AREA_RAMP.
-        assert!((small.alpha - SPPM_ALPHA_ONE_PLANE).abs() < 1e-4, "{small:?}");
-        assert!((small.flux_factor - 1.0).abs() < 1e-4, "{small:?}");
-        let large = gather_coverage(&scene, &si, &bsdf, scene.scene_radius);
-        assert_eq!(large.alpha, SPPM_ALPHA);
     }
 
     /// The plane tests, a visible point at the origin on a floor facing +z, gathering
