@@ -174,6 +174,10 @@ struct SppmPixelGpu {
     radius: f32,
     direct: vec3<f32>,
     photon_count: f32,
+    alpha: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Twin of `SppmVisiblePoint`.

@@ -21,6 +21,10 @@
 
 // Twin of SPPM_ALPHA.
 const SPPM_ALPHA: f32 = 2.0 / 3.0;
+// Twin of SPPM_ALPHA_ONE_PLANE.
+const SPPM_ALPHA_ONE_PLANE: f32 = 0.75;
+// Twin of ONE_PLANE_AREA_TOLERANCE.
+const ONE_PLANE_AREA_TOLERANCE: f32 = 0.01;
 // Twin of PHOTON_STREAM.
 const PHOTON_STREAM: u32 = 0xfffffffeu;
 // Twins of PLANE_TOLERANCE, STEP_TOLERANCE and PLANE_POSITION_ERROR (32 f32::EPSILON).
@@ -788,8 +792,8 @@ fn gather_area(region: GatherRegion) -> f32 {
     return area;
 }
 
-// Twin of `coverage_correction`: πr² over the area the gather at `si` draws from.
-fn sppm_coverage_correction(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> f32 {
+// Twin of `gather_coverage_area`: the area the gather at `si` within `radius` draws from.
+fn sppm_gather_coverage_area(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32) -> f32 {
     let winding_side = select(-1.0, 1.0, dot(si.wo_world, si.n_geometric) > 0.0);
     let magnitude = max(max(abs(si.p.x), abs(si.p.y)), abs(si.p.z));
     let bounds = sppm_plane_tolerances(radius, magnitude);
@@ -802,8 +806,17 @@ fn sppm_coverage_correction(si: SurfaceInteraction, bsdf: GltfBsdf, radius: f32)
         winding_side,
         has_rough_transmission(bsdf),
     );
-    let disk = PI * radius * radius;
-    return disk / clamp(gather_area(region), disk / MAX_COVERAGE_CORRECTION, disk);
+    return gather_area(region);
+}
+
+// Twin of `coverage_correction`: the disk over the area a gather draws from, where smaller.
+fn sppm_coverage_correction(disk: f32, area: f32) -> f32 {
+    return disk / clamp(area, disk / MAX_COVERAGE_CORRECTION, disk);
+}
+
+// Twin of `radius_alpha`: a pixel's α, decided at its first gather.
+fn sppm_radius_alpha(disk: f32, area: f32) -> f32 {
+    return select(SPPM_ALPHA, SPPM_ALPHA_ONE_PLANE, abs(area / disk - 1.0) <= ONE_PLANE_AREA_TOLERANCE);
 }
 
 // Twin of `PhotonGrid::gather`. Cells may share a slot: each cell's run is read, and a
@@ -863,12 +876,16 @@ fn sppm_gather(@builtin(global_invocation_id) gid: vec3<u32>) {
         let surface = sppm_surface(vp);
         let si = surface.si;
         var gathered = sppm_gather_photons(SppmMap(0u, 0u), si, surface.bsdf, state.radius);
-        gathered.phi *= sppm_coverage_correction(si, surface.bsdf, state.radius);
         let area = PI * state.radius * state.radius;
+        let covered = sppm_gather_coverage_area(si, surface.bsdf, state.radius);
+        gathered.phi *= sppm_coverage_correction(area, covered);
+        if (state.alpha == 0.0) {
+            state.alpha = sppm_radius_alpha(area, covered);
+        }
         estimate += vp.beta * gathered.phi / (f32(frame.sppm_photons) * area);
         if (gathered.m > 0u) {
             let m = f32(gathered.m);
-            let n = state.photon_count + SPPM_ALPHA * m;
+            let n = state.photon_count + state.alpha * m;
             let radius = state.radius * sqrt(n / (state.photon_count + m));
             let shrink = (radius / state.radius) * (radius / state.radius);
             state.tau = (state.tau + vp.beta * gathered.phi) * shrink;

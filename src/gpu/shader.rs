@@ -299,6 +299,8 @@ mod tests {
         let sppm_module = module_of(Integrator::Sppm);
         for (name, value) in [
             ("SPPM_ALPHA", sppm::SPPM_ALPHA as f64),
+            ("SPPM_ALPHA_ONE_PLANE", sppm::SPPM_ALPHA_ONE_PLANE as f64),
+            ("ONE_PLANE_AREA_TOLERANCE", sppm::ONE_PLANE_AREA_TOLERANCE as f64),
             ("PHOTON_STREAM", sppm::PHOTON_STREAM as f64),
             ("PLANE_TOLERANCE", sppm::PLANE_TOLERANCE as f64),
             ("STEP_TOLERANCE", sppm::STEP_TOLERANCE as f64),

@@ -17,7 +17,8 @@
 //! out by measuring the boundary rather than by shrinking the disk. It needs no rays and adds no
 //! noise. Where the surface is a plane wider than the sphere the area is πr² to rounding and
 //! the estimate is unchanged; the correction shrinks with r as the bias does, so SPPM stays
-//! consistent.
+//! consistent. A pixel's first gather's area also decides its radius update's α
+//! (`super::sppm::radius_alpha`).
 //!
 //! Per triangle: its plane cuts the sphere in a disk of radius ρ = √(r² − h²) about the
 //! point's projection (h the point's distance to the plane); the triangle is clipped by the

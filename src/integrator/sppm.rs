@@ -33,12 +33,13 @@
 //!    r is less than the disk πr² (past a convex edge, at a silhouette) Φ is scaled by πr²
 //!    over that area, measured exactly from the triangles ([`coverage_correction`],
 //!    `super::gather_area`), so that it is flux over the disk as the update assumes. Then
-//!    pbrt's update with α = 2/3: N' = N + αM, r' = r √(N'/(N + M)), τ' = (τ + β Φ) r'²/r².
+//!    pbrt's update: N' = N + αM, r' = r √(N'/(N + M)), τ' = (τ + β Φ) r'²/r², with α = 2/3,
+//!    or 0.75 for a pixel whose first gather's disk lay on one plane ([`radius_alpha`]).
 //!
 //! After n passes of N_p photons a pixel is L = Σ L_direct / n + τ / (n N_p π r²). Its bias
 //! (the blur of the radius) falls as r shrinks; r² falls roughly as n^(α−1) where photons
-//! are dense (Knaus & Zwicker 2011, "Progressive Photon Mapping: A Probabilistic Approach").
-//! The coverage correction shrinks with r too (it is 1 wherever the surface within r is a
+//! are dense (Knaus & Zwicker 2011, "Progressive Photon Mapping: A Probabilistic Approach"),
+//! for either α. The coverage correction shrinks with r too (it is 1 wherever the surface within r is a
 //! plane), so the estimate stays consistent.
 //!
 //! **Variance channels.** A pixel's passes are not independent samples of one mean (they
@@ -92,6 +93,35 @@ use crate::scene::FlatScene;
 /// On the 128² Cornell box at 20 s, 0.5 and 0.8 gave 2.3 and 1.06 times its relMSE
 /// (bench/RESULTS.md, "Where SPPM's Cornell-box error comes from").
 pub const SPPM_ALPHA: f32 = 2.0 / 3.0;
+
+/// α for a pixel whose first gather's disk lies on its visible point's surface alone: the
+/// area it draws its photons from is πr² of the initial radius, no edge, corner or other
+/// surface within it ([`radius_alpha`]). There the radius's bias is only the irradiance's
+/// curvature across the disk, small on walls and floors, so the radius may shrink more
+/// slowly and keep more photons (less noise); pixels near edges and corners, whose bias is
+/// what shrinking removes, keep [`SPPM_ALPHA`]. Any α below 1 keeps the estimate consistent
+/// (Knaus & Zwicker 2011); choosing it per pixel by the bias each pixel can have is, in
+/// coarse form, what adaptive progressive photon mapping does (Kaplanyan & Dachsbacher
+/// 2013). What the area cannot see is the irradiance's own curvature: a caustic on a flat
+/// floor blurs longer. On the 128² Cornell box at 20 s, 1.27× less relMSE than 2/3
+/// everywhere; behind the glass pane 9% more (bench/RESULTS.md, "A slower radius, decided
+/// once per pixel").
+///
+/// Decided once and kept in the pixel's state, not at every pass from that pass's area: a
+/// radius that follows the area's `f32` rounding, which differs between the backends, gave
+/// a same-seed CPU and GPU render different radii, and through them different photon sets
+/// (bench/history/photon-mapping.md). One decision per pixel at its initial radius is
+/// exposed to that rounding once, where the area's distance from the tolerance is spread
+/// over the scene's geometry, not swept through it as the radius shrinks.
+pub const SPPM_ALPHA_ONE_PLANE: f32 = 0.75;
+
+/// The relative difference from πr² within which a pixel's first gather's area counts as
+/// one plane ([`radius_alpha`]). A plane wider than the disk gives πr² to the area's
+/// rounding, a few 10⁻⁶; a tessellated sphere bends it off by the facets' angle, which is
+/// larger. 1% lets a gently curved surface count (the irradiance varies across it as
+/// little) and sits four orders above the rounding, so that the backends decide alike but
+/// where a pixel's area lies within rounding of it.
+pub const ONE_PLANE_AREA_TOLERANCE: f32 = 0.01;
 
 /// The row of [`Rng::new`] photons draw from: no pixel has it (fewer than 2²⁸ rows), and
 /// the light tracer's paths have `LIGHT_PATH_STREAM` (u32::MAX).
@@ -173,6 +203,8 @@ pub struct SppmPixel {
     pub tau: Vec3,
     /// Σ over passes of the light that needs no photons.
     pub direct: Vec3,
+    /// The radius update's α ([`radius_alpha`]); 0 until the pixel's first gather decides it.
+    pub alpha: f32,
 }
 
 impl From<crate::scene::layout::SppmPixelGpu> for SppmPixel {
@@ -182,6 +214,7 @@ impl From<crate::scene::layout::SppmPixelGpu> for SppmPixel {
             photon_count: p.photon_count,
             tau: Vec3::from(p.tau),
             direct: Vec3::from(p.direct),
+            alpha: p.alpha,
         }
     }
 }
@@ -314,11 +347,15 @@ pub fn sppm_pass(
             pixel.direct += path.direct;
             if let Some(vp) = &path.visible {
                 let (phi, m) = grid.gather(&photons, &vp.si, &vp.bsdf, pixel.radius);
-                let phi = phi * coverage_correction(ctx.scene, &vp.si, &vp.bsdf, pixel.radius);
                 let area = std::f32::consts::PI * pixel.radius * pixel.radius;
+                let covered = gather_coverage_area(ctx.scene, &vp.si, &vp.bsdf, pixel.radius);
+                let phi = phi * coverage_correction(area, covered);
+                if pixel.alpha == 0.0 {
+                    pixel.alpha = radius_alpha(area, covered);
+                }
                 estimate += vp.beta * phi / (photon_count * area);
                 if m > 0 {
-                    let n = pixel.photon_count + SPPM_ALPHA * m as f32;
+                    let n = pixel.photon_count + pixel.alpha * m as f32;
                     let radius = pixel.radius * (n / (pixel.photon_count + m as f32)).sqrt();
                     let shrink = (radius / pixel.radius) * (radius / pixel.radius);
                     pixel.tau = (pixel.tau + vp.beta * phi) * shrink;
@@ -771,18 +808,9 @@ impl PhotonGrid {
     }
 }
 
-/// The factor that turns the flux a gather at `si` within `radius` found into flux over the
-/// disk πr² (step 4 of the module): πr² over the area it draws its photons from
-/// ([`gather_area`]), where that area is smaller than the disk, at most
-/// [`MAX_COVERAGE_CORRECTION`]; else 1.
-///
-/// Where the area is larger, at a concave edge or corner (the disk's part past the edge is
-/// less than the part of the meeting surface within r, which the gather also reads), the
-/// factor stays 1: taking it below 1 there made the Cornell box's room edges 0.5–1% dark
-/// (irradiance falls towards a concave corner, and all of the meeting surface's part lies
-/// within r of it, so its photons weigh the average towards the dark corner), where the
-/// uncorrected estimate is within ±0.6% (bench/RESULTS.md, "Photon mapping").
-pub(crate) fn coverage_correction(
+/// The area a gather at `si` within `radius` draws its photons from ([`gather_area`]): the
+/// triangles inside the gather's sphere that its tests accept (step 4 of the module).
+pub(crate) fn gather_coverage_area(
     scene: &FlatScene,
     si: &SurfaceInteraction,
     bsdf: &GltfBsdf,
@@ -800,9 +828,34 @@ pub(crate) fn coverage_correction(
         winding_side,
         transmits: bsdf.has_rough_transmission(),
     };
-    let disk = std::f32::consts::PI * radius * radius;
-    let found = gather_area(&scene.nodes, &scene.triangles, &scene.materials, &region);
-    disk / found.clamp(disk / MAX_COVERAGE_CORRECTION, disk)
+    gather_area(&scene.nodes, &scene.triangles, &scene.materials, &region)
+}
+
+/// The factor that turns the flux a gather over the disk of area `disk` found into flux over
+/// the disk (step 4 of the module), given the `area` it draws its photons from
+/// ([`gather_coverage_area`]): the disk over the area, where that area is smaller than the
+/// disk, at most [`MAX_COVERAGE_CORRECTION`]; else 1.
+///
+/// Where the area is larger, at a concave edge or corner (the disk's part past the edge is
+/// less than the part of the meeting surface within r, which the gather also reads), the
+/// factor stays 1: taking it below 1 there made the Cornell box's room edges 0.5–1% dark
+/// (irradiance falls towards a concave corner, and all of the meeting surface's part lies
+/// within r of it, so its photons weigh the average towards the dark corner), where the
+/// uncorrected estimate is within ±0.6% (bench/RESULTS.md, "Photon mapping").
+pub(crate) fn coverage_correction(disk: f32, area: f32) -> f32 {
+    disk / area.clamp(disk / MAX_COVERAGE_CORRECTION, disk)
+}
+
+/// A pixel's radius-update α, decided once, in the pass that sets its radius, from the
+/// `area` its first gather draws from against the `disk` πr² of its initial radius:
+/// [`SPPM_ALPHA_ONE_PLANE`] where they agree within [`ONE_PLANE_AREA_TOLERANCE`] (the disk
+/// lies on the visible point's surface alone), else [`SPPM_ALPHA`].
+pub(crate) fn radius_alpha(disk: f32, area: f32) -> f32 {
+    if (area / disk - 1.0).abs() <= ONE_PLANE_AREA_TOLERANCE {
+        SPPM_ALPHA_ONE_PLANE
+    } else {
+        SPPM_ALPHA
+    }
 }
 
 /// The share of the gather radius by which a photon may lie behind the visible point's
@@ -894,6 +947,34 @@ mod tests {
 
     fn photon_at(p: Vec3) -> Photon {
         Photon { p, wi: Vec3::Z, beta: Vec3::ONE, n: Vec3::Z }
+    }
+
+    /// A pixel's α where the Cornell box camera's central ray meets the back wall: within a
+    /// thousandth of the scene's radius the disk lies on the wall alone (the slower α, no
+    /// flux correction but rounding); within the scene's whole radius it reaches past the
+    /// wall's edges onto the surfaces meeting it (the update's own α).
+    #[test]
+    fn a_disk_on_one_plane_shrinks_more_slowly_than_one_across_an_edge() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf");
+        let (scene, _) = crate::scene::load(&path).unwrap();
+        let view = crate::scene::ViewSettings { camera: None, aspect: 1.0 };
+        let scene = FlatScene::build(&scene, &view).unwrap();
+        let ray = generate_camera_ray(&scene.camera, 64, 64, 32, 32, glam::Vec2::splat(0.5));
+        let hit = scene.intersect_closest(&ray, 0).expect("the central ray meets the box");
+        let si = surface_interaction(&scene, &ray, &hit, 0.0);
+        let material = &scene.materials[si.material as usize];
+        let bsdf = GltfBsdf::new(material, si.wo, si.front_face, si.coat_normal);
+        let alpha_and_correction = |radius: f32| {
+            let disk = std::f32::consts::PI * radius * radius;
+            let area = gather_coverage_area(&scene, &si, &bsdf, radius);
+            (radius_alpha(disk, area), coverage_correction(disk, area), area / disk)
+        };
+        let (alpha, correction, share) = alpha_and_correction(1e-3 * scene.scene_radius);
+        assert_eq!(alpha, SPPM_ALPHA_ONE_PLANE, "area / disk {share}");
+        // The area's f32 rounding, summed from triangle pieces: a few 1e-6 of the disk.
+        assert!((correction - 1.0).abs() < 1e-4, "{correction}");
+        let (alpha, _, share) = alpha_and_correction(scene.scene_radius);
+        assert_eq!(alpha, SPPM_ALPHA, "area / disk {share}");
     }
 
     /// The plane tests, a visible point at the origin on a floor facing +z, gathering

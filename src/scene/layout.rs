@@ -442,7 +442,7 @@ gpu_struct! {
 
 gpu_struct! {
     /// A pixel's progressive photon-mapping state on the GPU (`integrator::sppm::SppmPixel`;
-    /// WGSL `sppm_pixels` in shaders/sppm.wgsl). 32 bytes.
+    /// WGSL `sppm_pixels` in shaders/sppm.wgsl). 48 bytes.
     pub struct SppmPixelGpu {
         /// τ: the flux gathered so far, scaled to the current radius.
         pub tau: [f32; 3],
@@ -452,6 +452,11 @@ gpu_struct! {
         pub direct: [f32; 3],
         /// N: the photon count the radius stands for.
         pub photon_count: f32,
+        /// The radius update's α; 0 until the pixel's first gather decides it.
+        pub alpha: f32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 
