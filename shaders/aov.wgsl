@@ -1,6 +1,6 @@
 // Auxiliary images (AOVs): each pixel's albedo, normal, depth, emission and coverage averaged
-// over AOV_SAMPLES stratified camera rays (AOV_REFINED_SAMPLES on silhouettes and emitters'
-// edges), followed through delta lobes. CPU twin: src/integrator/aov.rs, which says why the
+// over AOV_SAMPLES stratified camera rays (more on silhouettes and emitters' edges, as the
+// host's list and `frame.aov_rays` say), followed through delta lobes. CPU twin: src/integrator/aov.rs, which says why the
 // rays are stratified, where their numbers come from, which pixels are refined, and what a
 // delta chain gives.
 
@@ -9,7 +9,6 @@
 @group(0) @binding(21) var<storage, read_write> aovs: array<PixelAov>;
 
 const AOV_SAMPLES: u32 = 16u;
-const AOV_REFINED_SAMPLES: u32 = 256u;
 const AOV_MAX_DELTA_BOUNCES: u32 = 8u;
 const AOV_SAMPLE_INDEX: u32 = 0xffffffffu;
 
@@ -25,7 +24,8 @@ struct AovRay {
 // AOV ray `k` of `rays` (a square number) of pixel (x, y): in cell k of a √rays × √rays
 // grid over the pixel, jittered within it.
 fn aov_ray(x: u32, y: u32, cone: vec2<f32>, k: u32, rays: u32) -> AovRay {
-    let side = select(4u, 16u, rays == AOV_REFINED_SAMPLES);
+    // √rays, exact for the square counts the passes take (CPU: `u32::isqrt`).
+    let side = u32(sqrt(f32(rays)) + 0.5);
     sampler_start(SAMPLER_INDEPENDENT, x, y, AOV_SAMPLE_INDEX - k, frame.seed);
     let jitter = rng_next_2d();
     let cell = vec2<f32>(f32(k % side), f32(k / side));
@@ -107,7 +107,7 @@ fn aov(@builtin(global_invocation_id) gid: vec3<u32>) {
 // from the first pass), row-major indices; one unused element without AOVs.
 @group(0) @binding(23) var<storage, read> aov_refine_list: array<u32>;
 
-// The second pass: AOV_REFINED_SAMPLES rays for list entries `frame.sample_offset` ..
+// The second pass: `frame.aov_rays` rays for list entries `frame.sample_offset` ..
 // `frame.sample_offset + frame.samples` (the dispatch's slice of the list).
 @compute @workgroup_size(64, 1, 1)
 fn aov_refine(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -117,5 +117,5 @@ fn aov_refine(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let pixel = aov_refine_list[frame.sample_offset + gid.x];
     let cone = vec2<f32>(frame.cone_width, frame.cone_spread);
-    aovs[pixel] = pixel_aov(pixel % frame.width, pixel / frame.width, cone, AOV_REFINED_SAMPLES);
+    aovs[pixel] = pixel_aov(pixel % frame.width, pixel / frame.width, cone, frame.aov_rays);
 }

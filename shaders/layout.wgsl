@@ -166,6 +166,10 @@ struct FrameParams {
     ic_gather_job_offset: u32,
     ic_gather_round: u32,
     ic_gather_polar_strata: u32,
+    aov_rays: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Twin of `SppmPixelGpu` (src/scene/layout.rs).

@@ -10,7 +10,7 @@ use super::context::{GpuContext, Kernel};
 use super::tables::{self, UniformTables};
 use crate::error::{Error, Result};
 use crate::film::Film;
-use crate::integrator::aov::{AOV_REFINED_SAMPLES, AOV_SAMPLES};
+use crate::integrator::aov::{AOV_REFINED_SAMPLES, AOV_SAMPLES, AOV_SILHOUETTE_SAMPLES};
 use crate::integrator::bdpt::{BdptStats, BDPT_MAX_VERTICES};
 use crate::integrator::Integrator;
 use crate::render::{Backend, RenderSettings};
@@ -1327,6 +1327,10 @@ impl GpuBackend {
                 .settings
                 .irradiance_cache
                 .map_or(0, |c| crate::integrator::irradiance_cache::gather_strata(c.gather_rays).0),
+            aov_rays: 0,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         }
     }
 
@@ -1436,21 +1440,30 @@ impl GpuBackend {
         // edges, decided on the host as on the CPU (`pixels_to_refine`).
         let first = self.read_back::<PixelAov>(&self.aovs)?;
         let refine = crate::integrator::aov::pixels_to_refine(width, height, &first);
-        if !refine.is_empty() {
-            self.ctx.queue.write_buffer(&self.aov_refine_list, 0, bytemuck::cast_slice(&refine));
+        // One list on the device: the silhouettes, then the emitters' edges.
+        let list: Vec<u32> = refine.silhouettes.iter().chain(&refine.emitter_edges).copied().collect();
+        if !list.is_empty() {
+            self.ctx.queue.write_buffer(&self.aov_refine_list, 0, bytemuck::cast_slice(&list));
         }
-        // Slices of the list of at most AOV_BAND_PIXELS / 16 pixels (256 rays each).
-        let slice = AOV_BAND_PIXELS / 16;
+        let parts = [
+            (0, refine.silhouettes.len() as u32, AOV_SILHOUETTE_SAMPLES),
+            (refine.silhouettes.len() as u32, refine.emitter_edges.len() as u32, AOV_REFINED_SAMPLES),
+        ];
         let mut last = None;
-        for start in (0..refine.len() as u32).step_by(slice as usize) {
-            let count = slice.min(refine.len() as u32 - start);
-            let params = FrameParams {
-                cone_width: cone.width,
-                cone_spread: cone.spread,
-                ..self.frame_params(start, count, 0, 1)
-            };
-            // `aov_refine`'s workgroups of 64 over the slice's list entries.
-            last = Some(self.submit_groups(&kernels.refine, params, (count.div_ceil(64), 1, 1)));
+        for (first_entry, entries, rays) in parts {
+            // Slices of at most AOV_BAND_PIXELS × AOV_SAMPLES rays.
+            let slice = AOV_BAND_PIXELS * AOV_SAMPLES / rays;
+            for start in (0..entries).step_by(slice as usize) {
+                let count = slice.min(entries - start);
+                let params = FrameParams {
+                    cone_width: cone.width,
+                    cone_spread: cone.spread,
+                    aov_rays: rays,
+                    ..self.frame_params(first_entry + start, count, 0, 1)
+                };
+                // `aov_refine`'s workgroups of 64 over the slice's list entries.
+                last = Some(self.submit_groups(&kernels.refine, params, (count.div_ceil(64), 1, 1)));
+            }
         }
         if let Some(index) = last {
             self.wait(index)?;
@@ -1458,13 +1471,7 @@ impl GpuBackend {
         let aovs = self.read_back::<PixelAov>(&self.aovs)?;
         // Every pixel counts the rays it took (SOFTWARE_GPU_GROUP_SECONDS says why a device
         // might take fewer).
-        let expected = |i: usize| {
-            if refine.binary_search(&(i as u32)).is_ok() {
-                AOV_REFINED_SAMPLES
-            } else {
-                AOV_SAMPLES
-            }
-        };
+        let expected = |i: usize| refine.rays_of(i as u32);
         if let Some(i) = (0..aovs.len()).find(|&i| aovs[i].rays != expected(i)) {
             return Err(Error::Gpu(format!(
                 "the AOV pass took {} of {} rays at pixel {i}: the device cut it short",

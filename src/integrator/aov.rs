@@ -7,8 +7,9 @@
 //!
 //! Each pixel averages [`AOV_SAMPLES`] camera rays, stratified over the pixel as the
 //! render's box filter places its samples, so that the guides are anti-aliased as the image
-//! is (an aliased guide puts its staircase into a denoised edge), and [`AOV_REFINED_SAMPLES`]
-//! on silhouettes and emitters' edges ([`pixels_to_refine`]). Their random numbers come from the
+//! is (an aliased guide puts its staircase into a denoised edge), then more on edges
+//! ([`pixels_to_refine`]): [`AOV_SILHOUETTE_SAMPLES`] on silhouettes, [`AOV_REFINED_SAMPLES`]
+//! on emitters' edges. Their random numbers come from the
 //! independent sampler at sample indices the render never reaches ([`AOV_SAMPLE_INDEX`]), so
 //! the guides' jitter is independent of the image's noise: a denoiser weighting by features
 //! that correlate with the noise it removes would keep part of it (Rousselle et al. 2013
@@ -38,11 +39,19 @@ use crate::scene::FlatScene;
 /// cost more time than the denoiser it guides and changed its error by under 1% on the
 /// Cornell box).
 pub const AOV_SAMPLES: u32 = 16;
-/// Rays per pixel on a silhouette or an emitter's edge ([`pixels_to_refine`]), one in each
-/// cell of a 16 × 16 grid: there the denoiser reads coverage and emission as the share of
-/// the pixel they take, and 16 rays would state a bright emitter's share only to ±1/16 or so.
-/// Such pixels are few (a line along each edge), so the refinement costs little.
+/// Rays per pixel on an emitter's edge ([`pixels_to_refine`]), one in each cell of a
+/// 16 × 16 grid: there the denoiser reads emission as the share of the pixel it takes
+/// (`crate::denoise::edges` puts the pixel's own emission back after its regression), and
+/// 16 rays would state a bright emitter's share only to ±1/16 or so, where its radiance may
+/// be a hundred times what it lights.
 pub const AOV_REFINED_SAMPLES: u32 = 256;
+/// Rays per pixel on a silhouette that no emitter's edge crosses ([`pixels_to_refine`]),
+/// one in each cell of an 8 × 8 grid: the denoiser's edge regression reads coverage as a
+/// feature, and ±1/64 of it moves a pixel by a sixty-fourth of the contrast across the
+/// edge, well below the noise of the renders a denoiser is for. On DamagedHelmet at 512²
+/// two thirds of the refined pixels are such, and 256 rays there made the refinement 64% of
+/// the AOV pass (bench/RESULTS.md, "Denoising").
+pub const AOV_SILHOUETTE_SAMPLES: u32 = 64;
 
 /// Delta bounces an AOV ray follows at most before it takes the surface it stands on: a
 /// chain of mirrors or a glass sphere's two faces need 2–4.
@@ -119,7 +128,8 @@ fn aov_ray(
 }
 
 /// The AOVs of pixel `(x, y)` of a `width × height` render through `camera` with seed
-/// `seed`, averaged over `rays` rays ([`AOV_SAMPLES`] or [`AOV_REFINED_SAMPLES`]), textures
+/// `seed`, averaged over `rays` rays ([`AOV_SAMPLES`], [`AOV_SILHOUETTE_SAMPLES`] or
+/// [`AOV_REFINED_SAMPLES`]), textures
 /// read through `cone`.
 #[allow(clippy::too_many_arguments)] // reason: a pixel's AOVs need all of these; the WGSL twin reads them from the frame
 pub fn pixel_aov(
@@ -149,39 +159,65 @@ pub fn pixel_aov(
     p
 }
 
+/// The pixels the second AOV pass refines ([`pixels_to_refine`]), row-major indices,
+/// ascending in each list.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct AovRefinement {
+    /// Silhouettes: [`AOV_SILHOUETTE_SAMPLES`] rays each.
+    pub silhouettes: Vec<u32>,
+    /// Emitters' edges: [`AOV_REFINED_SAMPLES`] rays each.
+    pub emitter_edges: Vec<u32>,
+}
+
+impl AovRefinement {
+    /// The rays pixel `i` takes in all: its refinement's, else the first pass's.
+    pub fn rays_of(&self, i: u32) -> u32 {
+        if self.emitter_edges.binary_search(&i).is_ok() {
+            AOV_REFINED_SAMPLES
+        } else if self.silhouettes.binary_search(&i).is_ok() {
+            AOV_SILHOUETTE_SAMPLES
+        } else {
+            AOV_SAMPLES
+        }
+    }
+}
+
 /// The pixels of a first AOV pass that straddle a silhouette or an emitter's edge, which the
-/// second pass refines with [`AOV_REFINED_SAMPLES`] rays: their coverage is partial, or a
-/// pixel of their 3 × 3 neighbourhood differs from them in coverage, or sees an emitter
-/// where they see none or the other way round (a thin emitter's edge can miss all 16 first
-/// rays of a pixel it crosses, so the neighbours tell). Within an emitter a texture's
-/// variation is no edge: refining it cost DamagedHelmet's AOV pass more than its 16-spp
-/// render. Row-major indices, ascending.
-pub fn pixels_to_refine(width: u32, height: u32, first: &[PixelAov]) -> Vec<u32> {
+/// second pass refines. An emitter's edge: the pixel, or a pixel of its 3 × 3 neighbourhood,
+/// sees an emitter where the other sees none (a thin emitter's edge can miss all 16 first
+/// rays of a pixel it crosses, so the neighbours tell), or the pixel sees an emitter over
+/// part of it only. A silhouette, otherwise: its coverage is partial, or a neighbour's
+/// differs. Within an emitter a texture's variation is no edge: refining it cost
+/// DamagedHelmet's AOV pass more than its 16-spp render.
+pub fn pixels_to_refine(width: u32, height: u32, first: &[PixelAov]) -> AovRefinement {
     let (w, h) = (width as usize, height as usize);
     let coverage = |p: &PixelAov| p.hits as f32 / p.rays.max(1) as f32;
     let emits = |p: &PixelAov| Vec3::from(p.emission).max_element() > 0.0;
-    (0..w * h)
-        .filter(|&i| {
-            let p = &first[i];
-            let (c, e) = (coverage(p), emits(p));
-            if c > 0.0 && c < 1.0 {
-                return true;
+    let mut out = AovRefinement::default();
+    for i in 0..w * h {
+        let p = &first[i];
+        let (c, e) = (coverage(p), emits(p));
+        let partial = c > 0.0 && c < 1.0;
+        let (x, y) = (i % w, i / w);
+        let (mut coverage_differs, mut emission_differs) = (false, false);
+        for qy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+            for qx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+                let q = &first[qy * w + qx];
+                coverage_differs |= coverage(q) != c;
+                emission_differs |= emits(q) != e;
             }
-            let (x, y) = (i % w, i / w);
-            (y.saturating_sub(1)..=(y + 1).min(h - 1)).any(|qy| {
-                (x.saturating_sub(1)..=(x + 1).min(w - 1)).any(|qx| {
-                    let q = &first[qy * w + qx];
-                    coverage(q) != c || emits(q) != e
-                })
-            })
-        })
-        .map(|i| i as u32)
-        .collect()
+        }
+        if emission_differs || (partial && e) {
+            out.emitter_edges.push(i as u32);
+        } else if partial || coverage_differs {
+            out.silhouettes.push(i as u32);
+        }
+    }
+    out
 }
 
 /// Every pixel's AOVs, row-major from the top row, rows in parallel: a first pass of
-/// [`AOV_SAMPLES`] rays, then [`AOV_REFINED_SAMPLES`] for the pixels [`pixels_to_refine`]
-/// names. Textures are read at the level of detail of a render of `spp` samples per pixel,
+/// [`AOV_SAMPLES`] rays, then more for the pixels [`pixels_to_refine`] names. Textures are read at the level of detail of a render of `spp` samples per pixel,
 /// the render the AOVs go with, so that the albedo a denoiser divides the colour by is the
 /// one the render's samples saw (a 16-spp render reads blurrier mip levels than a 1,024-spp
 /// one: `scene::camera::camera_ray_cone`).
@@ -202,12 +238,54 @@ pub fn render_aovs(
         })
         .collect();
     let refine = pixels_to_refine(width, height, &aovs);
-    let refined: Vec<PixelAov> = refine
-        .par_iter()
-        .map(|&i| pixel_aov(scene, camera, size, (i % width, i / width), seed, AOV_REFINED_SAMPLES, cone))
-        .collect();
-    for (&i, p) in refine.iter().zip(refined) {
-        aovs[i as usize] = p;
+    for (list, rays) in
+        [(&refine.silhouettes, AOV_SILHOUETTE_SAMPLES), (&refine.emitter_edges, AOV_REFINED_SAMPLES)]
+    {
+        let refined: Vec<PixelAov> = list
+            .par_iter()
+            .map(|&i| pixel_aov(scene, camera, size, (i % width, i / width), seed, rays, cone))
+            .collect();
+        for (&i, p) in list.iter().zip(refined) {
+            aovs[i as usize] = p;
+        }
     }
     aovs
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A first pass over 6 × 3 pixels: columns 0–1 miss, column 2 half covers a surface,
+    /// columns 3–5 see it fully, and column 5 sees it emit.
+    #[test]
+    fn silhouettes_and_emitters_edges_are_refined_apart() {
+        let (w, h) = (6u32, 3u32);
+        let first: Vec<PixelAov> = (0..w * h)
+            .map(|i| {
+                let x = i % w;
+                let hits = match x {
+                    0 | 1 => 0,
+                    2 => AOV_SAMPLES / 2,
+                    _ => AOV_SAMPLES,
+                };
+                let emission = if x == 5 { [1.0, 1.0, 1.0] } else { [0.0; 3] };
+                PixelAov { rays: AOV_SAMPLES, hits, emission, ..PixelAov::default() }
+            })
+            .collect();
+        let refine = pixels_to_refine(w, h, &first);
+        let columns = |list: &[u32]| {
+            let mut c: Vec<u32> = list.iter().map(|i| i % w).collect();
+            c.sort();
+            c.dedup();
+            c
+        };
+        // Coverage changes between columns 1, 2 and 3; emission between 4 and 5.
+        assert_eq!(columns(&refine.silhouettes), [1, 2, 3]);
+        assert_eq!(columns(&refine.emitter_edges), [4, 5]);
+        assert_eq!(refine.silhouettes.len() + refine.emitter_edges.len(), 5 * h as usize);
+        assert_eq!(refine.rays_of(2), AOV_SILHOUETTE_SAMPLES);
+        assert_eq!(refine.rays_of(5), AOV_REFINED_SAMPLES);
+        assert_eq!(refine.rays_of(0), AOV_SAMPLES);
+    }
 }

@@ -437,6 +437,13 @@ gpu_struct! {
         pub ic_gather_job_offset: u32,
         pub ic_gather_round: u32,
         pub ic_gather_polar_strata: u32,
+        /// The AOV pass's refinement (shaders/aov.wgsl `aov_refine`): the rays each pixel of
+        /// the dispatch's list takes (`integrator::aov::AOV_SILHOUETTE_SAMPLES` or
+        /// `AOV_REFINED_SAMPLES`).
+        pub aov_rays: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 
@@ -644,7 +651,8 @@ gpu_struct! {
         /// emitter's edge apart from the surface beside it, which has the same albedo, normal
         /// and depth.
         pub emission: [f32; 3],
-        /// Rays the pixel averaged (`AOV_SAMPLES`, or `AOV_REFINED_SAMPLES` on an edge).
+        /// Rays the pixel averaged (`AOV_SAMPLES`, or more on an edge: `AOV_SILHOUETTE_SAMPLES`,
+        /// `AOV_REFINED_SAMPLES`).
         pub rays: u32,
     }
 }
