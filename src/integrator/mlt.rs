@@ -766,10 +766,7 @@ mod tests {
     /// one per trace up to the bound of 64.
     #[test]
     fn samples_read_within_the_gpu_bound() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/lamp-shade-room.gltf");
-        let (scene, _) = crate::scene::load(&path).unwrap();
-        let view = crate::scene::ViewSettings { camera: None, aspect: 1.0 };
-        let flat = FlatScene::build(&scene, &view).unwrap();
+        let flat = crate::scene::bundled_flat_scene("lamp-shade-room.gltf");
         let settings = IntegratorSettings { max_depth: MAX_MLT_DEPTH, ..IntegratorSettings::default() };
         let bdpt = BdptContext::new(&flat, &flat.camera, &settings, 16, 16);
         let mut longest = [0usize; 3];

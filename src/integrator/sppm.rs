@@ -955,10 +955,7 @@ mod tests {
     /// wall's edges onto the surfaces meeting it (the update's own α).
     #[test]
     fn a_disk_on_one_plane_shrinks_more_slowly_than_one_across_an_edge() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf");
-        let (scene, _) = crate::scene::load(&path).unwrap();
-        let view = crate::scene::ViewSettings { camera: None, aspect: 1.0 };
-        let scene = FlatScene::build(&scene, &view).unwrap();
+        let scene = crate::scene::bundled_flat_scene("cornell-box.gltf");
         let ray = generate_camera_ray(&scene.camera, 64, 64, 32, 32, glam::Vec2::splat(0.5));
         let hit = scene.intersect_closest(&ray, 0).expect("the central ray meets the box");
         let si = surface_interaction(&scene, &ray, &hit, 0.0);

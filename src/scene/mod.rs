@@ -27,6 +27,16 @@ pub use material::{AlphaMode, MaterialDesc, TextureSlot};
 pub use normals::{oct_decode, oct_encode};
 pub use uri::LoadOptions;
 
+/// A scene of the repository's `scenes/` folder (`name` relative to it), flattened with its
+/// own camera at a square aspect: the fixture of unit tests that need real geometry.
+#[cfg(test)]
+pub(crate) fn bundled_flat_scene(name: &str) -> FlatScene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    let (scene, _) = load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    FlatScene::build(&scene, &ViewSettings { camera: None, aspect: 1.0 })
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
 /// A node's world transform as it applies to a mesh: points by the affine matrix, normals by
 /// the inverse transpose of its linear part (pbrt-v4 §3.10.3), and the winding flipped when
 /// the determinant is negative so front faces stay front faces (glTF 2.0 §3.7.4).
