@@ -1,8 +1,8 @@
 // Auxiliary images (AOVs): each pixel's albedo, normal, depth, emission and coverage averaged
 // over AOV_SAMPLES stratified camera rays (more on silhouettes and emitters' edges, as the
-// host's list and `frame.aov_rays` say), followed through delta lobes. CPU twin: src/integrator/aov.rs, which says why the
-// rays are stratified, where their numbers come from, which pixels are refined, and what a
-// delta chain gives.
+// host's list and `frame.aov_rays` say), followed through delta lobes. CPU twin:
+// src/integrator/aov.rs, which says why the rays are stratified, where their numbers come
+// from, which pixels are refined, and what a delta chain gives.
 
 // Binding 21: one PixelAov per pixel where the render was set up for AOVs
 // (`RenderSettings::aovs`), else one unused element.

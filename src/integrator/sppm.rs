@@ -39,8 +39,8 @@
 //! After n passes of N_p photons a pixel is L = Σ L_direct / n + τ / (n N_p π r²). Its bias
 //! (the blur of the radius) falls as r shrinks; r² falls roughly as n^(α−1) where photons
 //! are dense (Knaus & Zwicker 2011, "Progressive Photon Mapping: A Probabilistic Approach"),
-//! for either α. The coverage correction shrinks with r too (it is 1 wherever the surface within r is a
-//! plane), so the estimate stays consistent.
+//! for either α. The coverage correction shrinks with r too (it is 1 wherever the surface
+//! within r is a plane), so the estimate stays consistent.
 //!
 //! **Variance channels.** A pixel's passes are not independent samples of one mean (they
 //! share the radius and τ), so the film's Welford statistics are kept over each pass's own
