@@ -144,3 +144,42 @@ fn connect_to_camera(si: SurfaceInteraction, hit: ClosestHit, beta: vec3<f32>) {
     }
     caustic_splat(proj.pixel, value * (1.0 / f32(frame.light_paths)));
 }
+
+// `FrameParams::light_traced_caustics` (twins of the constants in src/scene/layout.rs): the
+// light tracer's image of the sample index is added to each sample, or (adaptive sampling)
+// summed apart by `accumulate_caustic_sums`.
+const CAUSTICS_PER_SAMPLE: u32 = 1u;
+const CAUSTICS_APART: u32 = 2u;
+
+// Words (f32 bits) per pixel of an adaptive render's caustic sums, which follow the pass's
+// image (6 words per pixel) in `caustics`: Σ P_k·c_k for even and for odd sample indices,
+// then Σ P_k·c_k² (twin of `CausticSums` in src/integrator/light_tracing.rs, which explains
+// the estimator).
+const CAUSTIC_SUM_WORDS: u32 = 9u;
+
+// One invocation per pixel, after every band of pass `frame.sample_offset` (of
+// `frame.light_paths` paths): adds the pass's image to the pixel's sums, in the order and
+// f32 arithmetic of `CausticSums::add_pass`. One invocation owns each pixel's words, so
+// plain loads and stores suffice (the buffer is atomic for the splats).
+@compute @workgroup_size(8, 8, 1)
+fn accumulate_caustic_sums(@builtin(global_invocation_id) gid: vec3<u32>) {
+    load_dispatch_constants();
+    let px = band_pixel(gid);
+    if (px.z == 0u) {
+        return;
+    }
+    let pixel = px.y * frame.width + px.x;
+    let c = caustic_radiance(pixel);
+    let paths = f32(frame.light_paths);
+    let base = 6u * frame.width * frame.height + CAUSTIC_SUM_WORDS * pixel;
+    let r = replicate_of(frame.sample_offset);
+    for (var ch = 0u; ch < 3u; ch++) {
+        add_to_caustic_word(base + 3u * r + ch, paths * c[ch]);
+        add_to_caustic_word(base + 6u + ch, paths * c[ch] * c[ch]);
+    }
+}
+
+fn add_to_caustic_word(word: u32, value: f32) {
+    let sum = bitcast<f32>(atomicLoad(&caustics[word])) + value;
+    atomicStore(&caustics[word], bitcast<u32>(sum));
+}

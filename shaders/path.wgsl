@@ -313,7 +313,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
             if (sample_ended) {
                 // A poisoned path poisons its sample, split or not (the CPU twin returns at once).
                 var value = select(l, poison(), poisoned);
-                if (frame.light_traced_caustics != 0u) {
+                if (frame.light_traced_caustics == CAUSTICS_PER_SAMPLE) {
                     // The light tracer's half of the pixel for this sample index.
                     value += caustic_radiance(pixel);
                 }

@@ -106,13 +106,24 @@ fn adaptive_renders_of_the_mirror_and_glass_box_are_unbiased_on_both_backends() 
 
 #[test]
 fn both_backends_decide_the_same_counts_and_render_the_same_pixels() {
+    same_counts_and_pixels_on_both_backends("cornell-box.gltf");
+}
+
+/// The mirror-and-glass box's caustics are light traced, and an adaptive render sums every
+/// pass's light paths into one image for it (`CausticSums`; on the GPU
+/// `accumulate_caustic_sums`): the same sums on both backends.
+#[test]
+fn both_backends_sum_the_light_traced_caustics_alike() {
+    same_counts_and_pixels_on_both_backends("cornell-spheres.gltf");
+}
+
+fn same_counts_and_pixels_on_both_backends(scene: &str) {
     let Some(_) = common::gpu() else { return };
     let adaptive = Some(AdaptiveSettings { threshold: 0.05, min_spp: 8 });
     let films: Vec<(Film, Vec<u32>)> = [BackendChoice::Cpu, BackendChoice::Gpu]
         .into_iter()
         .map(|backend| {
-            let mut session =
-                open(&SessionOptions { adaptive, ..options("cornell-box.gltf", 32, 256, 5, backend) });
+            let mut session = open(&SessionOptions { adaptive, ..options(scene, 32, 256, 5, backend) });
             let film = render(&mut session, 256);
             (film, session.sample_budgets().unwrap().to_vec())
         })
@@ -121,7 +132,7 @@ fn both_backends_decide_the_same_counts_and_render_the_same_pixels() {
     // The pilots agree to f32 rounding (the same random numbers), so a count can differ only
     // where the needed count sits on an integer boundary: at most 1% of the pixels.
     let differ = cpu_counts.iter().zip(gpu_counts).filter(|(a, b)| a != b).count();
-    assert!(differ * 100 <= cpu_counts.len(), "{differ} of {} counts differ", cpu_counts.len());
+    assert!(differ * 100 <= cpu_counts.len(), "{scene}: {differ} of {} counts differ", cpu_counts.len());
     // Where the counts agree the pixels took the same samples: equal to rounding (the
     // same-seed bound of tests/gpu, 1e-3 relative, in 99% of them).
     let mut far = 0;
@@ -134,7 +145,7 @@ fn both_backends_decide_the_same_counts_and_render_the_same_pixels() {
         let (a, b) = (cpu.pixels[i].mean, gpu.pixels[i].mean);
         far += (0..3).any(|c| (a[c] - b[c]).abs() > 1e-3 * a[c].abs().max(1e-2)) as usize;
     }
-    assert!(far * 100 <= same, "{far} of {same} pixels differ beyond rounding");
+    assert!(far * 100 <= same, "{scene}: {far} of {same} pixels differ beyond rounding");
 }
 
 #[test]

@@ -6,7 +6,7 @@ use crate::film::{film_add_sample, Film};
 use crate::integrator::bdpt::{bdpt_sample, BdptContext, BdptSink, BdptStats, StrategyImages, Subpaths};
 use crate::integrator::delta_view::camera_sees_only_delta_surfaces;
 use crate::integrator::irradiance_cache::{IrradianceCache, IrradianceCacheContext, IrradianceCacheStats};
-use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, LIGHT_PATH_STREAM};
+use crate::integrator::light_tracing::{sum_splats, trace_caustic_pass, CausticSums, LIGHT_PATH_STREAM};
 use crate::integrator::mlt::{importance_before_pass, mlt_pass, MltContext, MltStats};
 use crate::integrator::partition::{camera_supports_light_tracing, scene_supports_light_tracing};
 use crate::integrator::photon::{photon_map_sample, PhotonMapSettings, PhotonMaps};
@@ -50,6 +50,9 @@ pub struct CpuBackend<'a> {
     /// The light tracer's pass last traced, by sample index: `render_rows` asks for one
     /// sample index band by band.
     caustic_pass: Option<(u32, Vec<glam::Vec3>)>,
+    /// Adaptive sampling: the light tracer's passes summed into one image for the render
+    /// ([`CausticSums`]); the film then holds the camera paths alone.
+    caustic_sums: Option<CausticSums>,
     /// The settings' and the scene's half of [`Self::light_traces_caustics`], decided once:
     /// `scene_supports_light_tracing` reads every triangle.
     scene_light_traced: bool,
@@ -129,6 +132,7 @@ impl<'a> CpuBackend<'a> {
             rays: vec![0; settings.width as usize * settings.height as usize],
             light_rays: 0,
             caustic_pass: None,
+            caustic_sums: None,
             bdpt_pass: None,
             bdpt_stats: BdptStats::default(),
             strategies: settings.record_strategies.then(|| (StrategyImages::new(), 0)),
@@ -364,14 +368,22 @@ impl CpuBackend<'_> {
                     paths,
                 );
                 self.light_rays += rays;
+                if s.adaptive {
+                    let pixels = s.width as usize * s.height as usize;
+                    self.caustic_sums
+                        .get_or_insert_with(|| CausticSums::new(pixels))
+                        .add_pass(k, &image, paths);
+                }
                 self.caustic_pass = Some((k, image));
             }
             let pass = self.caustic_pass.take();
+            // An adaptive render's film takes the camera paths alone (`CausticSums`).
+            let per_sample = pass.as_ref().filter(|_| !self.settings.adaptive);
             self.render_band_with(
                 k..k + 1,
                 rows.clone(),
                 &integrator,
-                pass.as_ref().map(|(_, image)| &image[..]),
+                per_sample.map(|(_, image)| &image[..]),
             );
             self.caustic_pass = pass;
         }
@@ -558,6 +570,9 @@ impl Backend for CpuBackend<'_> {
         self.film = Film::new(self.settings.width, self.settings.height);
         self.rays.iter_mut().for_each(|r| *r = 0);
         self.light_rays = 0;
+        // A pass the sums no longer hold is traced again (deterministically) when next asked.
+        self.caustic_pass = None;
+        self.caustic_sums = None;
         self.bdpt_pass = None;
         self.bdpt_stats = BdptStats::default();
         self.mlt_stats = MltStats::default();
@@ -596,7 +611,10 @@ impl Backend for CpuBackend<'_> {
             Some(state) => {
                 Ok(sppm_film(&self.film, &state.pixels, state.passes, self.sppm_settings().photons))
             }
-            None => Ok(self.film.clone()),
+            None => Ok(match &self.caustic_sums {
+                Some(sums) => sums.fold_into(&self.film),
+                None => self.film.clone(),
+            }),
         }
     }
 

@@ -204,6 +204,8 @@ pub struct GpuContext {
     /// The light tracer's kernels (`trace_caustics`), by the scene features and table forms
     /// they were built for: built only for scenes whose caustics are light traced.
     caustic_kernels: Mutex<HashMap<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>>,
+    /// Adaptive sampling's `accumulate_caustic_sums`, keyed as `caustic_kernels`.
+    caustic_sum_kernels: Mutex<HashMap<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>>,
     /// The AOV passes (`aov` and `aov_refine` in shaders/aov.wgsl) per kernel, built on
     /// first use: a render that writes no AOVs never compiles one.
     aov_kernels: Mutex<HashMap<KernelKey, AovKernels>>,
@@ -286,6 +288,7 @@ impl GpuContext {
             modules: Mutex::new(HashMap::new()),
             kernels: Mutex::new(HashMap::new()),
             caustic_kernels: Mutex::new(HashMap::new()),
+            caustic_sum_kernels: Mutex::new(HashMap::new()),
             aov_kernels: Mutex::new(HashMap::new()),
         };
         // The path tracer's all-storage module now, so that a kernel the driver rejects
@@ -486,13 +489,33 @@ impl GpuContext {
         features: SceneFeatures,
         tables: UniformTables,
     ) -> Result<Arc<wgpu::ComputePipeline>> {
-        let mut cache = self.caustic_kernels.lock().unwrap_or_else(|p| p.into_inner());
+        self.light_tracing_kernel(&self.caustic_kernels, "trace_caustics", features, tables)
+    }
+
+    /// Adaptive sampling's `accumulate_caustic_sums` (shaders/light_tracing.wgsl), built
+    /// and cached as [`Self::caustics_kernel`].
+    pub fn caustic_sums_kernel(
+        &self,
+        features: SceneFeatures,
+        tables: UniformTables,
+    ) -> Result<Arc<wgpu::ComputePipeline>> {
+        self.light_tracing_kernel(&self.caustic_sum_kernels, "accumulate_caustic_sums", features, tables)
+    }
+
+    fn light_tracing_kernel(
+        &self,
+        cache: &Mutex<HashMap<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>>,
+        entry: &str,
+        features: SceneFeatures,
+        tables: UniformTables,
+    ) -> Result<Arc<wgpu::ComputePipeline>> {
+        let mut cache = cache.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(k) = cache.get(&(features, tables)) {
             return Ok(k.clone());
         }
-        // The light tracer is the path tracer's partner: its entry point is in that kernel.
+        // The light tracer is the path tracer's partner: its entry points are in that kernel.
         let source = self.module(Integrator::Path, tables)?;
-        let (pipeline, _) = self.build_pipeline(&source, "trace_caustics", &feature_constants(features))?;
+        let (pipeline, _) = self.build_pipeline(&source, entry, &feature_constants(features))?;
         let pipeline = Arc::new(pipeline);
         cache.insert((features, tables), pipeline.clone());
         Ok(pipeline)

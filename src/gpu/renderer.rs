@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::integrator::aov::{AOV_REFINED_SAMPLES, AOV_SAMPLES, AOV_SILHOUETTE_SAMPLES};
 use crate::integrator::bdpt::{BdptStats, BDPT_MAX_VERTICES};
-use crate::integrator::Integrator;
+use crate::integrator::{CausticSums, Integrator, CAUSTIC_SUM_WORDS};
 use crate::render::{Backend, RenderSettings};
 use crate::scene::layout::{FilmPixel, FirstHit, FrameParams, Light, PixelAov};
 use crate::scene::FlatScene;
@@ -121,6 +121,11 @@ pub struct GpuBackend {
     caustics_kernel: Option<Arc<wgpu::ComputePipeline>>,
     /// The sample index whose light-traced image `caustics` holds.
     caustic_pass: Option<u32>,
+    /// Adaptive sampling with light-traced caustics: the kernel that adds each pass's image
+    /// to the render's sums (kept in `caustics` after the image), and the passes' totals
+    /// (its `sums` are read back by [`Backend::film`]).
+    caustic_sums_kernel: Option<Arc<wgpu::ComputePipeline>>,
+    caustic_sums: Option<CausticSums>,
     /// The camera sees only delta surfaces: the light tracer's joins to it cannot
     /// contribute (`crate::integrator::delta_view`). Decided for the scene's camera; a
     /// camera set later keeps the light tracer (the backend holds no triangles to decide
@@ -432,7 +437,14 @@ impl GpuBackend {
         // Two words per channel (a 64-bit fixed-point sum) per pixel: the light tracer's
         // image, or bidirectional path tracing's t = 1 splats.
         let caustic_pixels = if caustics_kernel.is_some() || splats { pixels } else { 1 };
-        let caustics = zeroed("light-traced image", caustic_pixels * 6 * 4)?;
+        // An adaptive render sums the light tracer's images apart (`CausticSums`): its sums
+        // follow the image in the same buffer (`accumulate_caustic_sums`).
+        let caustic_sums_kernel = match &caustics_kernel {
+            Some(_) if settings.adaptive => Some(ctx.caustic_sums_kernel(scene.features, kernel.key.tables)?),
+            _ => None,
+        };
+        let sum_words = if caustic_sums_kernel.is_some() { pixels * CAUSTIC_SUM_WORDS as u64 } else { 0 };
+        let caustics = zeroed("light-traced image", (caustic_pixels * 6 + sum_words) * 4)?;
         // The count (padded to 16 bytes), then a vec4 per pixel.
         let bdpt_state = zeroed("bidirectional pass", 16 + 16 * if bdpt { pixels } else { 1 })?;
         let camera = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -693,6 +705,8 @@ impl GpuBackend {
             scene_radius: scene.scene_radius,
             caustics_kernel,
             caustic_pass: None,
+            caustic_sums: caustic_sums_kernel.as_ref().map(|_| CausticSums::new(0)),
+            caustic_sums_kernel,
             bind_buffers,
             ic_frame: (0.0, 0, 0),
             ic_scene: settings.irradiance_cache.is_some().then(|| scene.clone()),
@@ -880,15 +894,23 @@ impl GpuBackend {
             .ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("caustics") });
-        encoder.clear_buffer(&self.caustics, 0, None);
+        // The image only: an adaptive render's sums after it stay.
+        encoder.clear_buffer(&self.caustics, 0, Some(self.caustic_image_bytes()));
         self.ctx.queue.submit([encoder.finish()]);
         // Path i is invocation (i mod width, i div width): the rows that hold the pass's paths.
-        let h = self.light_paths(pass).div_ceil(self.settings.width).min(self.settings.height);
+        let paths = self.light_paths(pass);
+        let h = paths.div_ceil(self.settings.width).min(self.settings.height);
         let mut row = 0;
         while row < h {
             let count = rows.max(1).min(h - row);
             self.submit(&pipeline, self.frame_params(pass, 1, row, count));
             row += count;
+        }
+        if let (Some(kernel), Some(sums)) = (self.caustic_sums_kernel.clone(), self.caustic_sums.as_mut()) {
+            // Once per pass, whatever retakes or bands ask for its image again.
+            if sums.count_pass(pass, paths as usize) {
+                self.submit(&kernel, self.frame_params(pass, 1, 0, self.settings.height));
+            }
         }
         self.caustic_pass = Some(pass);
     }
@@ -1262,6 +1284,16 @@ impl GpuBackend {
         }
     }
 
+    /// Bytes of `caustics` that hold one pass's image (or splats), before an adaptive
+    /// render's sums.
+    fn caustic_image_bytes(&self) -> u64 {
+        let pixels = self.settings.width as u64 * self.settings.height as u64;
+        match self.caustic_sums {
+            Some(_) => pixels * 6 * 4,
+            None => self.caustics.size(),
+        }
+    }
+
     /// The light tracer's paths for sample index `k`: one per pixel that takes it
     /// (`trace_caustic_pass`).
     fn light_paths(&self, k: u32) -> u32 {
@@ -1292,7 +1324,11 @@ impl GpuBackend {
             cone_spread: cone.spread,
             sampler_kind: self.settings.sampler.index(),
             splits: self.settings.splits,
-            light_traced_caustics: self.light_traces_caustics() as u32,
+            light_traced_caustics: match (self.light_traces_caustics(), self.caustic_sums.is_some()) {
+                (false, _) => 0,
+                (true, false) => crate::scene::layout::CAUSTICS_PER_SAMPLE,
+                (true, true) => crate::scene::layout::CAUSTICS_APART,
+            },
             camera_connections: !self.camera_sees_only_delta as u32,
             scene_center: self.scene_center,
             scene_radius: self.scene_radius,
@@ -1725,6 +1761,13 @@ impl Backend for GpuBackend {
     fn film(&mut self) -> Result<Film> {
         let pixels = self.read_back::<FilmPixel>(&self.film)?;
         let film = Film { width: self.settings.width, height: self.settings.height, pixels };
+        if let Some(totals) = self.caustic_sums.as_ref().filter(|s| s.passes() > 0) {
+            let start = self.caustic_image_bytes();
+            let bytes = film.pixels.len() as u64 * CAUSTIC_SUM_WORDS as u64 * 4;
+            let sums =
+                self.ctx.read_buffer_range::<f32>(&self.caustics, start..start + bytes, SUBMIT_TIMEOUT)?;
+            return Ok(totals.with_sums(sums).fold_into(&film));
+        }
         let Some(state) = self.sppm.as_ref().filter(|s| s.maps.is_none()) else { return Ok(film) };
         // The film holds the per-pass estimates; the image is the progressive estimate.
         let states: Vec<crate::integrator::sppm::SppmPixel> = self
@@ -1807,6 +1850,13 @@ impl Backend for GpuBackend {
             encoder.clear_buffer(&state.pixels, 0, None);
             encoder.clear_buffer(&state.grid, 0, Some(SPPM_HEADER_WORDS * 4));
             state.passes = 0;
+        }
+        let image_bytes = self.caustic_image_bytes();
+        if let Some(sums) = self.caustic_sums.as_mut() {
+            encoder.clear_buffer(&self.caustics, image_bytes, None);
+            *sums = CausticSums::new(0);
+            // A pass the sums no longer hold is traced again when next asked for.
+            self.caustic_pass = None;
         }
         if let Some(state) = self.mlt.as_mut() {
             encoder.clear_buffer(&state.counters, 0, None);

@@ -270,6 +270,9 @@ mod tests {
             ("LIGHT_PATH_STREAM", crate::integrator::LIGHT_PATH_STREAM as f64),
             ("CAUSTIC_FRACTION_BITS", crate::integrator::CAUSTIC_FRACTION_BITS as f64),
             ("CAUSTIC_MAX_FIXED", crate::integrator::CAUSTIC_MAX_FIXED as f64),
+            ("CAUSTIC_SUM_WORDS", crate::integrator::CAUSTIC_SUM_WORDS as f64),
+            ("CAUSTICS_PER_SAMPLE", layout::CAUSTICS_PER_SAMPLE as f64),
+            ("CAUSTICS_APART", layout::CAUSTICS_APART as f64),
         ];
         for (name, value) in shared {
             assert_eq!(constant(name), *value, "constant {name}: WGSL vs Rust");

@@ -325,9 +325,190 @@ fn connect_to_camera(
     value.is_finite().then_some((pixel, value))
 }
 
+/// Words (`f32`) per pixel of [`CausticSums::sums`]: Σ P_k·c_k for even and for odd sample
+/// indices (three channels each), then Σ P_k·c_k² (three). The GPU keeps them after the
+/// pass's fixed-point image in its `caustics` buffer (`accumulate_caustic_sums` in
+/// shaders/light_tracing.wgsl reads and writes these word offsets).
+pub const CAUSTIC_SUM_WORDS: usize = 9;
+
+/// An adaptive render's light-traced caustics: one image for the whole render, made of
+/// every pass's light paths, in place of one pass's image added to each sample.
+///
+/// Under adaptive sampling pass k traces P_k paths, one per pixel still taking samples, so
+/// the late passes are sparse. Added sample by sample, as a uniform render adds them, a
+/// pixel that takes many samples gets most of its caustic estimate from those sparse
+/// passes (each with P_k paths' noise), and a pixel that stops early never sees the paths
+/// traced after it stopped: on the mirror-and-glass box that cost adaptive sampling about
+/// a fifth of its error (`bench/history/sampling.md`). Here every light path counts for
+/// every pixel: pass k's image c_k is an unbiased estimate of the caustic with variance
+/// s²/P_k (s² a path's variance at the pixel), and the render's estimate is the
+/// inverse-variance combination Σ P_k c_k / Σ P_k, whose variance s²/Σ P_k is what a
+/// uniform render of the same samples has. The film then holds the camera paths alone and
+/// [`Self::fold_into`] adds the caustics when the film is read. The pilot's counts read
+/// that folded film too, so they see the caustic's noise as before.
+#[derive(Clone, Debug, Default)]
+pub struct CausticSums {
+    /// Per pixel, [`CAUSTIC_SUM_WORDS`] words (row-major, the film's layout).
+    pub sums: Vec<f32>,
+    /// Σ P_k over the passes of even and of odd sample index.
+    pub paths: [f64; 2],
+    /// The passes added, by sample index (a pass is added once, whatever asks for it again).
+    passes: std::collections::BTreeSet<u32>,
+}
+
+impl CausticSums {
+    pub fn new(pixels: usize) -> CausticSums {
+        CausticSums { sums: vec![0.0; pixels * CAUSTIC_SUM_WORDS], ..CausticSums::default() }
+    }
+
+    /// Counts pass `k`, of `paths` light paths, into the totals; `false` if it was counted
+    /// already (then its image must not be added again).
+    pub fn count_pass(&mut self, k: u32, paths: usize) -> bool {
+        if !self.passes.insert(k) {
+            return false;
+        }
+        self.paths[crate::sampling::replicate_of(k) as usize] += paths as f64;
+        true
+    }
+
+    /// Adds pass `k`'s image (`paths` light paths, [`trace_caustic_pass`]) to the sums, in
+    /// the order and `f32` arithmetic of the GPU twin.
+    pub fn add_pass(&mut self, k: u32, image: &[Vec3], paths: usize) {
+        if !self.count_pass(k, paths) {
+            return;
+        }
+        let r = crate::sampling::replicate_of(k) as usize;
+        let p = paths as f32;
+        for (sums, c) in self.sums.chunks_exact_mut(CAUSTIC_SUM_WORDS).zip(image) {
+            for (ch, c) in c.to_array().into_iter().enumerate() {
+                sums[3 * r + ch] += p * c;
+                sums[6 + ch] += p * c * c;
+            }
+        }
+    }
+
+    /// These totals with `sums` read back from the GPU (`accumulate_caustic_sums`).
+    pub fn with_sums(&self, sums: Vec<f32>) -> CausticSums {
+        CausticSums { sums, paths: self.paths, passes: self.passes.clone() }
+    }
+
+    /// Passes counted.
+    pub fn passes(&self) -> usize {
+        self.passes.len()
+    }
+
+    /// `film` (camera paths alone) with the caustics added: each replicate r gets
+    /// C_r = Σ_{k ≡ r} P_k c_k / Σ_{k ≡ r} P_k, so the two stay independent and unbiased, and
+    /// the pixel's mean is their sample-weighted mean. Its variance grows by that of the
+    /// caustic estimate, s²·(n₀²/P₀ + n₁²/P₁)/n², with s² estimated from the passes as
+    /// (Σ P_k c_k² − (Σ P_k c_k)²/Σ P_k)/(K − 1) (E[P_k (c_k − μ)²] = s² for every pass; one
+    /// degree of freedom goes to μ): the film's sample variance then still estimates the
+    /// variance of the pixel's mean.
+    pub fn fold_into(&self, film: &crate::film::Film) -> crate::film::Film {
+        let mut out = film.clone();
+        let total = self.paths[0] + self.paths[1];
+        if total == 0.0 {
+            return out;
+        }
+        let k = self.passes.len();
+        for (p, sums) in out.pixels.iter_mut().zip(self.sums.chunks_exact(CAUSTIC_SUM_WORDS)) {
+            let a = [Vec3::from_slice(&sums[0..3]), Vec3::from_slice(&sums[3..6])];
+            let squares = Vec3::from_slice(&sums[6..9]);
+            let all = (a[0] + a[1]) / total as f32;
+            // A replicate with no pass yet (one pass rendered) takes the other's.
+            let c = [0, 1].map(|r| if self.paths[r] > 0.0 { a[r] / self.paths[r] as f32 } else { all });
+            let n = p.count;
+            if n == 0 {
+                continue;
+            }
+            let (n1, n0) = (p.odd_count, p.count - p.odd_count);
+            let (nf, n0f, n1f) = (n as f32, n0 as f32, n1 as f32);
+            p.mean = (Vec3::from(p.mean) + (n0f * c[0] + n1f * c[1]) / nf).to_array();
+            if n1 > 0 {
+                p.odd_mean = (Vec3::from(p.odd_mean) + c[1]).to_array();
+            }
+            if k >= 2 && n >= 2 {
+                let s2 = ((squares - (a[0] + a[1]) * (a[0] + a[1]) / total as f32) / (k - 1) as f32)
+                    .max(Vec3::ZERO);
+                let share = |nr: f32, r: usize| {
+                    if self.paths[r] > 0.0 {
+                        nr * nr / self.paths[r] as f32
+                    } else {
+                        nr * nr / total as f32
+                    }
+                };
+                let variance = s2 * (share(n0f, 0) + share(n1f, 1)) / (nf * nf);
+                p.m2 = (Vec3::from(p.m2) + variance * nf * (nf - 1.0)).to_array();
+            }
+        }
+        out
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An adaptive render's caustic estimate ([`CausticSums::fold_into`]): passes of 64 down
+    /// to 4 paths, each path contributing an exponential variate (mean 2, variance 4) to the
+    /// one pixel, whose camera samples add nothing. Over 4,000 renders the folded mean and
+    /// each replicate's must be unbiased, the mean's variance must be s²/Σ P_k (what every
+    /// path counting for the pixel gives), and the film's variance channel must estimate it.
+    #[test]
+    fn summed_caustics_are_unbiased_and_their_variance_is_estimated() {
+        let (mu, s2) = (2.0f64, 4.0f64);
+        let paths = [64usize, 64, 48, 32, 16, 8, 8, 4];
+        let total: usize = paths.iter().sum();
+        let trials = 4000;
+        let (mut means, mut odd_means, mut estimated) = (Vec::new(), Vec::new(), 0.0f64);
+        for trial in 0..trials {
+            let mut rng = Rng::new(trial, 0, 0, 17);
+            let mut sums = CausticSums::new(1);
+            for (k, &p) in paths.iter().enumerate() {
+                let c: f64 = (0..p).map(|_| -mu * (1.0 - rng.next_1d() as f64).ln()).sum::<f64>() / p as f64;
+                sums.add_pass(k as u32, &[Vec3::splat(c as f32)], p);
+                // A pass asked for again is not counted twice.
+                sums.add_pass(k as u32, &[Vec3::splat(1e3)], p);
+            }
+            let mut film = crate::film::Film::new(1, 1);
+            for k in 0..32 {
+                crate::film::film_add_sample(
+                    &mut film.pixels[0],
+                    Vec3::ZERO,
+                    crate::sampling::replicate_of(k),
+                );
+            }
+            let folded = sums.fold_into(&film);
+            means.push(folded.pixels[0].mean[0] as f64);
+            odd_means.push(folded.pixels[0].odd_mean[0] as f64);
+            estimated += folded.variance_of_mean()[0].x as f64 / trials as f64;
+        }
+        let mean_and_variance = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            (m, v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64)
+        };
+        let (mean, variance) = mean_and_variance(&means);
+        let (odd_mean, odd_variance) = mean_and_variance(&odd_means);
+        // 4σ of the trials' mean.
+        assert!((mean - mu).abs() < 4.0 * (variance / trials as f64).sqrt(), "mean {mean}, expected {mu}");
+        assert!(
+            (odd_mean - mu).abs() < 4.0 * (odd_variance / trials as f64).sqrt(),
+            "odd replicate's mean {odd_mean}"
+        );
+        // The replicates split the paths in near halves, so the mean's variance is within a
+        // few percent of s²/Σ P_k; the trials' sample variance is within ±9% (4σ of a
+        // variance from 4,000 near-Gaussian trials).
+        let ideal = s2 / total as f64;
+        assert!(
+            (variance / ideal - 1.0).abs() < 0.12,
+            "variance {variance}, every path counting gives {ideal}"
+        );
+        // The estimate from the passes (8 passes: 7 degrees of freedom, unbiased on average).
+        assert!(
+            (estimated / variance - 1.0).abs() < 0.12,
+            "estimated variance {estimated}, measured {variance}"
+        );
+    }
 
     #[test]
     fn caustic_fixed_point_rounds_to_its_resolution_and_clamps() {

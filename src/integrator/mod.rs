@@ -44,8 +44,8 @@ pub mod sppm;
 
 pub use interaction::{first_hit, sides_agree, surface_interaction, SurfaceInteraction};
 pub use light_tracing::{
-    caustic_from_fixed, caustic_to_fixed, trace_caustic_pass, CAUSTIC_FRACTION_BITS, CAUSTIC_MAX_FIXED,
-    LIGHT_PATH_STREAM, LIGHT_RR_MIN_VERTICES,
+    caustic_from_fixed, caustic_to_fixed, trace_caustic_pass, CausticSums, CAUSTIC_FRACTION_BITS,
+    CAUSTIC_MAX_FIXED, CAUSTIC_SUM_WORDS, LIGHT_PATH_STREAM, LIGHT_RR_MIN_VERTICES,
 };
 pub use mis::power_heuristic;
 pub use partition::{camera_supports_light_tracing, scene_supports_light_tracing, supports_light_tracing};

@@ -43,6 +43,13 @@ macro_rules! gpu_struct {
     };
 }
 
+/// `FrameParams::light_traced_caustics`: the light tracer's image of the sample index is
+/// added to each sample.
+pub const CAUSTICS_PER_SAMPLE: u32 = 1;
+/// `FrameParams::light_traced_caustics`: the caustics are light traced and summed apart
+/// (adaptive sampling, `crate::integrator::CausticSums`).
+pub const CAUSTICS_APART: u32 = 2;
+
 /// Marks "no index" in `u32` index fields (no emitter, missed ray, …).
 pub const INVALID_INDEX: u32 = u32::MAX;
 
@@ -374,9 +381,12 @@ gpu_struct! {
         pub sampler_kind: u32,
         /// Continuations per camera sample (`RenderSettings::splits`; 1: no splitting).
         pub splits: u32,
-        /// 1: the caustic paths are light traced (`crate::integrator::supports_light_tracing`):
-        /// `render` leaves them out and adds the light tracer's image for its one sample
-        /// index (`samples` is then 1); 0: every path is path traced.
+        /// [`CAUSTICS_PER_SAMPLE`]: the caustic paths are light traced
+        /// (`crate::integrator::supports_light_tracing`): `render` leaves them out and adds
+        /// the light tracer's image for its one sample index (`samples` is then 1);
+        /// [`CAUSTICS_APART`]: light traced, and an adaptive render sums the light tracer's
+        /// images apart (`crate::integrator::CausticSums`), so `render` leaves them out and
+        /// adds nothing; 0: every path is path traced.
         pub light_traced_caustics: u32,
         /// Bidirectional path tracing: 1 where light vertices may be joined to the camera
         /// (`crate::integrator::IntegratorSettings::camera_connections`), else 0.
