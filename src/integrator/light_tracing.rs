@@ -12,7 +12,8 @@
 //! the image of their camera connections divided by that count: an unbiased estimate of
 //! the light-traced half of every pixel, independent of the path-traced samples. Each
 //! backend adds it to sample k of each pixel, so the film's per-pixel statistics still see
-//! one independent estimate per sample (`film_add_sample`). The GPU twin is
+//! one independent estimate per sample (`film_add_sample`); an adaptive render sums the
+//! passes into one image for the whole render instead ([`CausticSums`]). The GPU twin is
 //! `shaders/light_tracing.wgsl`: the same paths from the same numbers, its splats summed
 //! by atomic adds in the fixed point of [`caustic_to_fixed`], which both backends use so
 //! that the sum does not depend on the order the splats arrive in.
