@@ -145,12 +145,6 @@ fn connect_to_camera(si: SurfaceInteraction, hit: ClosestHit, beta: vec3<f32>) {
     caustic_splat(proj.pixel, value * (1.0 / f32(frame.light_paths)));
 }
 
-// `FrameParams::light_traced_caustics` (twins of the constants in src/scene/layout.rs): the
-// light tracer's image of the sample index is added to each sample, or (adaptive sampling)
-// summed apart by `accumulate_caustic_sums`.
-const CAUSTICS_PER_SAMPLE: u32 = 1u;
-const CAUSTICS_APART: u32 = 2u;
-
 // Words (f32 bits) per pixel of an adaptive render's caustic sums, which follow the pass's
 // image (6 words per pixel) in `caustics`: Σ P_k·c_k for even and for odd sample indices,
 // then Σ P_k·c_k² (twin of `CausticSums` in src/integrator/light_tracing.rs, which explains
@@ -170,6 +164,10 @@ fn accumulate_caustic_sums(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let pixel = px.y * frame.width + px.x;
     let c = caustic_radiance(pixel);
+    if (all(c == vec3<f32>(0.0))) {
+        // No splat landed here this pass: adding zero would change nothing.
+        return;
+    }
     let paths = f32(frame.light_paths);
     let base = 6u * frame.width * frame.height + CAUSTIC_SUM_WORDS * pixel;
     let r = replicate_of(frame.sample_offset);

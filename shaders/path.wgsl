@@ -2,6 +2,12 @@
 // MIS (power heuristic) and Russian roulette: the `render` entry point. Bounce semantics,
 // random-number order and every guard match the CPU reference.
 
+// `FrameParams::light_traced_caustics` (twins of the constants in src/scene/layout.rs): the
+// light tracer's image of the sample index is added to each sample, or (adaptive sampling)
+// summed apart by `accumulate_caustic_sums` in shaders/light_tracing.wgsl.
+const CAUSTICS_PER_SAMPLE: u32 = 1u;
+const CAUSTICS_APART: u32 = 2u;
+
 // A path between bounces (twin of the CPU's `PathState`).
 struct PathState {
     // The ray to trace next (unit direction).

@@ -1519,9 +1519,16 @@ impl GpuBackend {
     }
 
     /// The film on the device (`FilmPixel` per pixel, row-major): a viewer's display pass
-    /// reads it in place.
+    /// reads it in place where [`Self::film_buffer_is_the_image`].
     pub fn film_buffer(&self) -> &wgpu::Buffer {
         &self.film
+    }
+
+    /// Does the film on the device hold the image? Not under photon mapping (it holds the
+    /// per-pass estimates, `integrator::sppm`) nor under adaptive sampling with light-traced
+    /// caustics (the camera paths alone, `CausticSums`): [`Backend::film`] makes the image.
+    pub fn film_buffer_is_the_image(&self) -> bool {
+        self.settings.integrator != Integrator::Sppm && self.caustic_sums.is_none()
     }
 
     /// Folds the per-pixel ray counters into the 64-bit total when `samples` more samples

@@ -44,9 +44,13 @@ use crate::scene::layout::{Camera, Light, LIGHT_TRIANGLE, MATERIAL_DOUBLE_SIDED,
 use crate::scene::texture::emitted_radiance;
 use crate::scene::FlatScene;
 
-/// Light paths per rayon task: enough to amortise the task, few enough to balance two
-/// threads on a 256² pass (64 tasks).
+/// Light paths per rayon task at most: enough to amortise the task, few enough to balance
+/// two threads on a 256² pass (64 tasks).
 const PATHS_PER_TASK: usize = 1024;
+/// Light paths per rayon task at least. An adaptive render's late passes trace one path per
+/// pixel still sampling, often a few hundred: they are cut into about four tasks per
+/// thread, down to this size, rather than left to one thread.
+const MIN_PATHS_PER_TASK: usize = 32;
 
 /// Light-path vertices after which roulette may end a light path (the first is always the
 /// delta vertex next to the light, the second the first surface the camera can see).
@@ -102,12 +106,15 @@ pub fn trace_caustic_pass(
 ) -> (Vec<Vec3>, u64) {
     let projection = PinholeProjection::new(camera, width, height);
     let pixels = width as usize * height as usize;
-    let tasks: Vec<(Vec<(usize, Vec3)>, u64)> = (0..paths.div_ceil(PATHS_PER_TASK))
+    // The splats are summed in fixed point, so how the paths are cut into tasks does not
+    // change the image.
+    let per_task = paths.div_ceil(4 * rayon::current_num_threads()).clamp(MIN_PATHS_PER_TASK, PATHS_PER_TASK);
+    let tasks: Vec<(Vec<(usize, Vec3)>, u64)> = (0..paths.div_ceil(per_task))
         .into_par_iter()
         .map(|task| {
             let mut splats = Vec::new();
             let mut rays = 0;
-            for i in task * PATHS_PER_TASK..((task + 1) * PATHS_PER_TASK).min(paths) {
+            for i in task * per_task..((task + 1) * per_task).min(paths) {
                 let mut rng = Rng::new(i as u32, LIGHT_PATH_STREAM, pass, seed);
                 trace_light_path(scene, &projection, settings, &mut rng, &mut splats, &mut rays);
             }
@@ -380,7 +387,10 @@ impl CausticSums {
         }
         let r = crate::sampling::replicate_of(k) as usize;
         let p = paths as f32;
-        for (sums, c) in self.sums.chunks_exact_mut(CAUSTIC_SUM_WORDS).zip(image) {
+        // Most pixels receive no splat in a pass: adding zero would change nothing.
+        for (sums, c) in
+            self.sums.chunks_exact_mut(CAUSTIC_SUM_WORDS).zip(image).filter(|(_, c)| **c != Vec3::ZERO)
+        {
             for (ch, c) in c.to_array().into_iter().enumerate() {
                 sums[3 * r + ch] += p * c;
                 sums[6 + ch] += p * c * c;

@@ -217,9 +217,8 @@ fn make_backend(
     Ok(match gpu {
         Some(ctx) => {
             let backend = GpuBackend::new(ctx.clone(), flat, settings)?;
-            // Photon mapping's film holds its per-pass estimates, not its image
-            // (`integrator::sppm`): a display reads the image back instead.
-            let film = (settings.integrator != Integrator::Sppm).then(|| backend.film_buffer().clone());
+            // Where the film on the device is not the image, a display reads the image back.
+            let film = backend.film_buffer_is_the_image().then(|| backend.film_buffer().clone());
             let detail = format!(
                 "kernel specialised to [{}], {}, built in {:.2} s, scene uploaded in {:.3} s",
                 flat.features.describe(),
