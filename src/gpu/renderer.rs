@@ -121,11 +121,9 @@ pub struct GpuBackend {
     caustics_kernel: Option<Arc<wgpu::ComputePipeline>>,
     /// The sample index whose light-traced image `caustics` holds.
     caustic_pass: Option<u32>,
-    /// Adaptive sampling with light-traced caustics: the kernel that adds each pass's image
-    /// to the render's sums (kept in `caustics` after the image), and the passes' totals
-    /// (its `sums` are read back by [`Backend::film`]).
-    caustic_sums_kernel: Option<Arc<wgpu::ComputePipeline>>,
-    caustic_sums: Option<CausticSums>,
+    /// Adaptive sampling with light-traced caustics: the render's caustic sums, kept in
+    /// `caustics` after the pass's image.
+    caustic_sums: Option<DeviceCausticSums>,
     /// The camera sees only delta surfaces: the light tracer's joins to it cannot
     /// contribute (`crate::integrator::delta_view`). Decided for the scene's camera; a
     /// camera set later keeps the light tracer (the backend holds no triangles to decide
@@ -265,6 +263,14 @@ struct MapBuild {
     capacity: u32,
     grid_base: u32,
     record_base: u32,
+}
+
+/// An adaptive render's light-traced caustics on the device ([`CausticSums`]): the kernel
+/// that adds each pass's image to the sums (`accumulate_caustic_sums`), and the passes'
+/// totals; the sums themselves stay on the device until [`Backend::film`] reads them.
+struct DeviceCausticSums {
+    kernel: Arc<wgpu::ComputePipeline>,
+    totals: CausticSums,
 }
 
 impl GpuBackend {
@@ -439,11 +445,14 @@ impl GpuBackend {
         let caustic_pixels = if caustics_kernel.is_some() || splats { pixels } else { 1 };
         // An adaptive render sums the light tracer's images apart (`CausticSums`): its sums
         // follow the image in the same buffer (`accumulate_caustic_sums`).
-        let caustic_sums_kernel = match &caustics_kernel {
-            Some(_) if settings.adaptive => Some(ctx.caustic_sums_kernel(scene.features, kernel.key.tables)?),
+        let caustic_sums = match &caustics_kernel {
+            Some(_) if settings.adaptive => Some(DeviceCausticSums {
+                kernel: ctx.caustic_sums_kernel(scene.features, kernel.key.tables)?,
+                totals: CausticSums::new(0),
+            }),
             _ => None,
         };
-        let sum_words = if caustic_sums_kernel.is_some() { pixels * CAUSTIC_SUM_WORDS as u64 } else { 0 };
+        let sum_words = if caustic_sums.is_some() { pixels * CAUSTIC_SUM_WORDS as u64 } else { 0 };
         let caustics = zeroed("light-traced image", (caustic_pixels * 6 + sum_words) * 4)?;
         // The count (padded to 16 bytes), then a vec4 per pixel.
         let bdpt_state = zeroed("bidirectional pass", 16 + 16 * if bdpt { pixels } else { 1 })?;
@@ -705,8 +714,7 @@ impl GpuBackend {
             scene_radius: scene.scene_radius,
             caustics_kernel,
             caustic_pass: None,
-            caustic_sums: caustic_sums_kernel.as_ref().map(|_| CausticSums::new(0)),
-            caustic_sums_kernel,
+            caustic_sums,
             bind_buffers,
             ic_frame: (0.0, 0, 0),
             ic_scene: settings.irradiance_cache.is_some().then(|| scene.clone()),
@@ -906,9 +914,10 @@ impl GpuBackend {
             self.submit(&pipeline, self.frame_params(pass, 1, row, count));
             row += count;
         }
-        if let (Some(kernel), Some(sums)) = (self.caustic_sums_kernel.clone(), self.caustic_sums.as_mut()) {
+        if let Some(sums) = self.caustic_sums.as_mut() {
             // Once per pass, whatever retakes or bands ask for its image again.
-            if sums.count_pass(pass, paths as usize) {
+            if sums.totals.count_pass(pass, paths as usize) {
+                let kernel = sums.kernel.clone();
                 self.submit(&kernel, self.frame_params(pass, 1, 0, self.settings.height));
             }
         }
@@ -1768,12 +1777,12 @@ impl Backend for GpuBackend {
     fn film(&mut self) -> Result<Film> {
         let pixels = self.read_back::<FilmPixel>(&self.film)?;
         let film = Film { width: self.settings.width, height: self.settings.height, pixels };
-        if let Some(totals) = self.caustic_sums.as_ref().filter(|s| s.passes() > 0) {
+        if let Some(sums) = self.caustic_sums.as_ref().filter(|s| s.totals.passes() > 0) {
             let start = self.caustic_image_bytes();
             let bytes = film.pixels.len() as u64 * CAUSTIC_SUM_WORDS as u64 * 4;
-            let sums =
+            let words =
                 self.ctx.read_buffer_range::<f32>(&self.caustics, start..start + bytes, SUBMIT_TIMEOUT)?;
-            return Ok(totals.with_sums(sums).fold_into(&film));
+            return Ok(sums.totals.fold_sums_into(&words, &film));
         }
         let Some(state) = self.sppm.as_ref().filter(|s| s.maps.is_none()) else { return Ok(film) };
         // The film holds the per-pass estimates; the image is the progressive estimate.
@@ -1861,7 +1870,7 @@ impl Backend for GpuBackend {
         let image_bytes = self.caustic_image_bytes();
         if let Some(sums) = self.caustic_sums.as_mut() {
             encoder.clear_buffer(&self.caustics, image_bytes, None);
-            *sums = CausticSums::new(0);
+            sums.totals = CausticSums::new(0);
             // A pass the sums no longer hold is traced again when next asked for.
             self.caustic_pass = None;
         }

@@ -356,10 +356,11 @@ pub const CAUSTIC_SUM_WORDS: usize = 9;
 /// that folded film too, so they see the caustic's noise as before.
 #[derive(Clone, Debug, Default)]
 pub struct CausticSums {
-    /// Per pixel, [`CAUSTIC_SUM_WORDS`] words (row-major, the film's layout).
-    pub sums: Vec<f32>,
+    /// Per pixel, [`CAUSTIC_SUM_WORDS`] words (row-major, the film's layout); empty where
+    /// the GPU keeps them ([`Self::fold_sums_into`]).
+    sums: Vec<f32>,
     /// Σ P_k over the passes of even and of odd sample index.
-    pub paths: [f64; 2],
+    paths: [f64; 2],
     /// The passes added, by sample index (a pass is added once, whatever asks for it again).
     passes: std::collections::BTreeSet<u32>,
 }
@@ -398,11 +399,6 @@ impl CausticSums {
         }
     }
 
-    /// These totals with `sums` read back from the GPU (`accumulate_caustic_sums`).
-    pub fn with_sums(&self, sums: Vec<f32>) -> CausticSums {
-        CausticSums { sums, paths: self.paths, passes: self.passes.clone() }
-    }
-
     /// Passes counted.
     pub fn passes(&self) -> usize {
         self.passes.len()
@@ -416,39 +412,42 @@ impl CausticSums {
     /// degree of freedom goes to μ): the film's sample variance then still estimates the
     /// variance of the pixel's mean.
     pub fn fold_into(&self, film: &crate::film::Film) -> crate::film::Film {
+        self.fold_sums_into(&self.sums, film)
+    }
+
+    /// [`Self::fold_into`] with the sums kept elsewhere: read back from the GPU
+    /// (`accumulate_caustic_sums`), [`CAUSTIC_SUM_WORDS`] per pixel.
+    pub fn fold_sums_into(&self, sums: &[f32], film: &crate::film::Film) -> crate::film::Film {
         let mut out = film.clone();
         let total = self.paths[0] + self.paths[1];
         if total == 0.0 {
             return out;
         }
         let k = self.passes.len();
-        for (p, sums) in out.pixels.iter_mut().zip(self.sums.chunks_exact(CAUSTIC_SUM_WORDS)) {
-            let a = [Vec3::from_slice(&sums[0..3]), Vec3::from_slice(&sums[3..6])];
-            let squares = Vec3::from_slice(&sums[6..9]);
-            let all = (a[0] + a[1]) / total as f32;
-            // A replicate with no pass yet (one pass rendered) takes the other's.
-            let c = [0, 1].map(|r| if self.paths[r] > 0.0 { a[r] / self.paths[r] as f32 } else { all });
+        for (p, sums) in out.pixels.iter_mut().zip(sums.chunks_exact(CAUSTIC_SUM_WORDS)) {
             let n = p.count;
             if n == 0 {
                 continue;
             }
-            let (n1, n0) = (p.odd_count, p.count - p.odd_count);
-            let (nf, n0f, n1f) = (n as f32, n0 as f32, n1 as f32);
-            p.mean = (Vec3::from(p.mean) + (n0f * c[0] + n1f * c[1]) / nf).to_array();
-            if n1 > 0 {
+            let a = [Vec3::from_slice(&sums[0..3]), Vec3::from_slice(&sums[3..6])];
+            let squares = Vec3::from_slice(&sums[6..9]);
+            // Each replicate's Σ P_k c_k and Σ P_k; one with no pass yet (a single pass
+            // rendered) takes both replicates' passes.
+            let replicate =
+                [0, 1]
+                    .map(|r| if self.paths[r] > 0.0 { (a[r], self.paths[r]) } else { (a[0] + a[1], total) });
+            let c = replicate.map(|(sum, paths)| sum / paths as f32);
+            let (n1, n0) = (p.odd_count as f32, (p.count - p.odd_count) as f32);
+            let nf = n as f32;
+            p.mean = (Vec3::from(p.mean) + (n0 * c[0] + n1 * c[1]) / nf).to_array();
+            if p.odd_count > 0 {
                 p.odd_mean = (Vec3::from(p.odd_mean) + c[1]).to_array();
             }
             if k >= 2 && n >= 2 {
-                let s2 = ((squares - (a[0] + a[1]) * (a[0] + a[1]) / total as f32) / (k - 1) as f32)
-                    .max(Vec3::ZERO);
-                let share = |nr: f32, r: usize| {
-                    if self.paths[r] > 0.0 {
-                        nr * nr / self.paths[r] as f32
-                    } else {
-                        nr * nr / total as f32
-                    }
-                };
-                let variance = s2 * (share(n0f, 0) + share(n1f, 1)) / (nf * nf);
+                let sum = a[0] + a[1];
+                let s2 = ((squares - sum * sum / total as f32) / (k - 1) as f32).max(Vec3::ZERO);
+                let shares = n0 * n0 / replicate[0].1 as f32 + n1 * n1 / replicate[1].1 as f32;
+                let variance = s2 * shares / (nf * nf);
                 p.m2 = (Vec3::from(p.m2) + variance * nf * (nf - 1.0)).to_array();
             }
         }
