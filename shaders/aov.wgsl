@@ -19,6 +19,8 @@ struct AovRay {
     albedo: vec3<f32>,
     normal: vec3<f32>,
     emission: vec3<f32>,
+    // The material the albedo was read from; AOV_NO_MATERIAL for a ray that left the scene.
+    material: u32,
 }
 
 // AOV ray `k` of `rays` (a square number) of pixel (x, y): in cell k of a √rays × √rays
@@ -31,7 +33,7 @@ fn aov_ray(x: u32, y: u32, cone: vec2<f32>, k: u32, rays: u32) -> AovRay {
     let cell = vec2<f32>(f32(k % side), f32(k / side));
     let u = min((cell + jitter) / f32(side), vec2<f32>(1.0 - 1.1920929e-7));
     var ray = generate_camera_ray(frame.width, frame.height, x, y, u);
-    var out = AovRay(false, 0.0, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    var out = AovRay(false, 0.0, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), AOV_NO_MATERIAL);
     var travelled = 0.0;
     for (var bounce = 0u; bounce <= AOV_MAX_DELTA_BOUNCES; bounce++) {
         var alpha_seed = 0u;
@@ -53,6 +55,7 @@ fn aov_ray(x: u32, y: u32, cone: vec2<f32>, k: u32, rays: u32) -> AovRay {
         if (has_non_delta(bsdf) || bounce == AOV_MAX_DELTA_BOUNCES) {
             out.albedo = material.base_color;
             out.normal = si.frame.z;
+            out.material = si.material;
             if (si.front_face || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u) {
                 out.emission = material.emission;
             }
@@ -72,10 +75,11 @@ fn aov_ray(x: u32, y: u32, cone: vec2<f32>, k: u32, rays: u32) -> AovRay {
 // The AOVs of pixel (x, y) averaged over `rays` rays (CPU twin: `pixel_aov`).
 fn pixel_aov(x: u32, y: u32, cone: vec2<f32>, rays: u32) -> PixelAov {
     // `rays` counts the rays taken, so that the host can tell a pass the device cut short.
-    var p = PixelAov(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0u, vec3<f32>(0.0), 0u);
+    var p = PixelAov(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0u, vec3<f32>(0.0), 0u, AOV_NO_MATERIAL, 0u, 0u, 0u);
     for (var k = 0u; k < rays; k++) {
         p.rays += 1u;
         let r = aov_ray(x, y, cone, k, rays);
+        p.material = select(AOV_MIXED_MATERIALS, r.material, k == 0u || r.material == p.material);
         p.albedo += r.albedo;
         p.normal += r.normal;
         p.emission += r.emission;

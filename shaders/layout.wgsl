@@ -299,6 +299,10 @@ struct PixelAov {
     hits: u32,
     emission: vec3<f32>,
     rays: u32,
+    material: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct DisplayParams {
@@ -313,6 +317,10 @@ struct DisplayParams {
 }
 
 const INVALID_INDEX: u32 = 0xffffffffu;
+// `PixelAov::material` where every AOV ray left the scene, and where they read different
+// materials (CPU: `scene::layout`).
+const AOV_NO_MATERIAL: u32 = 0xffffffffu;
+const AOV_MIXED_MATERIALS: u32 = 0xfffffffeu;
 const TRIANGLE_HAS_NORMALS: u32 = 1u;
 const TRIANGLE_HAS_TANGENTS: u32 = 2u;
 const WRAP_REPEAT: u32 = 0u;

@@ -229,6 +229,8 @@ mod tests {
         let constant = |name: &str| literal_constant(&module, name);
         let shared: &[(&str, f64)] = &[
             ("INVALID_INDEX", layout::INVALID_INDEX as f64),
+            ("AOV_NO_MATERIAL", layout::AOV_NO_MATERIAL as f64),
+            ("AOV_MIXED_MATERIALS", layout::AOV_MIXED_MATERIALS as f64),
             ("TRIANGLE_HAS_NORMALS", layout::TRIANGLE_HAS_NORMALS as f64),
             ("TRIANGLE_HAS_TANGENTS", layout::TRIANGLE_HAS_TANGENTS as f64),
             ("WRAP_REPEAT", layout::WRAP_REPEAT as f64),

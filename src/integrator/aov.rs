@@ -30,7 +30,7 @@ use crate::bsdf::GltfBsdf;
 use crate::geometry::spawn_ray;
 use crate::sampling::{PathSampler, SamplerKind};
 use crate::scene::camera::{camera_ray_cone, generate_camera_ray};
-use crate::scene::layout::{Camera, PixelAov, MATERIAL_DOUBLE_SIDED};
+use crate::scene::layout::{Camera, PixelAov, AOV_MIXED_MATERIALS, AOV_NO_MATERIAL, MATERIAL_DOUBLE_SIDED};
 use crate::scene::texture::textured_material;
 use crate::scene::FlatScene;
 
@@ -49,9 +49,9 @@ pub const AOV_REFINED_SAMPLES: u32 = 256;
 /// one in each cell of an 8 × 8 grid: the denoiser's edge regression reads coverage as a
 /// feature, and ±1/64 of it moves a pixel by a sixty-fourth of the contrast across the
 /// edge, well below the noise of the renders a denoiser is for. At 512² the Cornell box
-/// has 5,913 such pixels of 6,360 refined, DamagedHelmet 2,973 of 8,243 (the rest line its
-/// emissive texture), where 256 rays on every refined pixel made the refinement 64% of the
-/// AOV pass (bench/RESULTS.md, "Denoising").
+/// has 5,913 such pixels of 6,360 refined, DamagedHelmet 2,777 of 3,052 (the rest where its
+/// emissive parts meet the background), where 256 rays on every refined pixel made the
+/// refinement 64% of the AOV pass (bench/RESULTS.md, "Denoising").
 pub const AOV_SILHOUETTE_SAMPLES: u32 = 64;
 
 /// Delta bounces an AOV ray follows at most before it takes the surface it stands on: a
@@ -64,7 +64,7 @@ pub const AOV_MAX_DELTA_BOUNCES: u32 = 8;
 pub const AOV_SAMPLE_INDEX: u32 = u32::MAX;
 
 /// What one AOV ray found.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct AovRay {
     /// Did the camera ray hit a surface (and at what distance)?
     hit: bool,
@@ -72,6 +72,22 @@ struct AovRay {
     albedo: Vec3,
     normal: Vec3,
     emission: Vec3,
+    /// The material the albedo was read from; [`AOV_NO_MATERIAL`] for a ray that left the
+    /// scene.
+    material: u32,
+}
+
+impl Default for AovRay {
+    fn default() -> Self {
+        AovRay {
+            hit: false,
+            depth: 0.0,
+            albedo: Vec3::ZERO,
+            normal: Vec3::ZERO,
+            emission: Vec3::ZERO,
+            material: AOV_NO_MATERIAL,
+        }
+    }
 }
 
 /// AOV ray `k` of `rays` (a square number) of pixel `(x, y)`: in cell k of a √rays × √rays
@@ -114,6 +130,7 @@ fn aov_ray(
         if bsdf.has_non_delta() || bounce == AOV_MAX_DELTA_BOUNCES {
             out.albedo = Vec3::from(material.base_color);
             out.normal = si.frame.z;
+            out.material = si.material;
             if si.front_face || material.flags & MATERIAL_DOUBLE_SIDED != 0 {
                 out.emission = Vec3::from(material.emission);
             }
@@ -146,6 +163,7 @@ pub fn pixel_aov(
     let (mut albedo, mut normal, mut emission) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
     for k in 0..rays {
         let r = aov_ray(scene, camera, (width, height), (x, y), seed, cone, k, rays);
+        p.material = if k == 0 || r.material == p.material { r.material } else { AOV_MIXED_MATERIALS };
         albedo += r.albedo;
         normal += r.normal;
         emission += r.emission;
@@ -184,12 +202,19 @@ impl AovRefinement {
 }
 
 /// The pixels of a first AOV pass that straddle a silhouette or an emitter's edge, which the
-/// second pass refines. An emitter's edge: the pixel, or a pixel of its 3 × 3 neighbourhood,
-/// sees an emitter where the other sees none (a thin emitter's edge can miss all 16 first
-/// rays of a pixel it crosses, so the neighbours tell), or the pixel sees an emitter over
-/// part of it only. A silhouette, otherwise: its coverage is partial, or a neighbour's
-/// differs. Within an emitter a texture's variation is no edge: refining it cost
-/// DamagedHelmet's AOV pass more than its 16-spp render.
+/// second pass refines. An emitter's edge is where one surface emits and another beside it
+/// does not: the pixel's rays read more than one material and some of them an emitter, or a
+/// pixel of its 3 × 3 neighbourhood sees an emitter where the pixel sees none (or the other
+/// way round) and reads another material (a thin emitter's edge can miss all 16 first rays
+/// of a pixel it crosses, so the neighbours tell). A silhouette, otherwise: its coverage is
+/// partial, or a neighbour's differs.
+///
+/// Within one material an emissive texture's variation is no emitter's edge, even where it
+/// goes from emitting to dark: its texels are no brighter than the texture's own range,
+/// which 16 rays state as well as they state an albedo texture, while a lamp beside a
+/// ceiling may be a hundred times brighter than the surface it lights. Refining every
+/// emitting-to-dark step of DamagedHelmet's emissive texture with 256 rays (5,270 pixels
+/// at 512²) took half its AOV pass (`bench/history/denoising.md`).
 pub fn pixels_to_refine(width: u32, height: u32, first: &[PixelAov]) -> AovRefinement {
     let (w, h) = (width as usize, height as usize);
     let coverage = |p: &PixelAov| p.hits as f32 / p.rays.max(1) as f32;
@@ -200,15 +225,15 @@ pub fn pixels_to_refine(width: u32, height: u32, first: &[PixelAov]) -> AovRefin
         let (c, e) = (coverage(p), emits(p));
         let partial = c > 0.0 && c < 1.0;
         let (x, y) = (i % w, i / w);
-        let (mut coverage_differs, mut emission_differs) = (false, false);
+        let (mut coverage_differs, mut emitter_beside) = (false, false);
         for qy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
             for qx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
                 let q = &first[qy * w + qx];
                 coverage_differs |= coverage(q) != c;
-                emission_differs |= emits(q) != e;
+                emitter_beside |= emits(q) != e && q.material != p.material;
             }
         }
-        if emission_differs || (partial && e) {
+        if emitter_beside || (e && p.material == AOV_MIXED_MATERIALS) {
             out.emitter_edges.push(i as u32);
         } else if partial || coverage_differs {
             out.silhouettes.push(i as u32);
@@ -257,36 +282,61 @@ pub fn render_aovs(
 mod tests {
     use super::*;
 
-    /// A first pass over 6 × 3 pixels: columns 0–1 miss, column 2 half covers a surface,
-    /// columns 3–5 see it fully, and column 5 sees it emit.
+    /// A first pass over 6 × 3 pixels: columns 0–1 miss, column 2 half covers a surface
+    /// (material 0), columns 3–4 see it fully, and column 5 sees a lamp (material 1) emit;
+    /// with `textured` the lamp is instead material 0 too, an emissive texture that lights
+    /// up in column 5.
+    fn first_pass(w: u32, h: u32, textured: bool) -> Vec<PixelAov> {
+        (0..w * h)
+            .map(|i| {
+                let x = i % w;
+                let (hits, material) = match x {
+                    0 | 1 => (0, AOV_NO_MATERIAL),
+                    2 => (AOV_SAMPLES / 2, AOV_MIXED_MATERIALS),
+                    5 if !textured => (AOV_SAMPLES, 1),
+                    _ => (AOV_SAMPLES, 0),
+                };
+                let emission = if x == 5 { [1.0, 1.0, 1.0] } else { [0.0; 3] };
+                PixelAov { rays: AOV_SAMPLES, hits, emission, material, ..PixelAov::default() }
+            })
+            .collect()
+    }
+
+    fn columns(w: u32, list: &[u32]) -> Vec<u32> {
+        let mut c: Vec<u32> = list.iter().map(|i| i % w).collect();
+        c.sort();
+        c.dedup();
+        c
+    }
+
     #[test]
     fn silhouettes_and_emitters_edges_are_refined_apart() {
         let (w, h) = (6u32, 3u32);
-        let first: Vec<PixelAov> = (0..w * h)
-            .map(|i| {
-                let x = i % w;
-                let hits = match x {
-                    0 | 1 => 0,
-                    2 => AOV_SAMPLES / 2,
-                    _ => AOV_SAMPLES,
-                };
-                let emission = if x == 5 { [1.0, 1.0, 1.0] } else { [0.0; 3] };
-                PixelAov { rays: AOV_SAMPLES, hits, emission, ..PixelAov::default() }
-            })
-            .collect();
-        let refine = pixels_to_refine(w, h, &first);
-        let columns = |list: &[u32]| {
-            let mut c: Vec<u32> = list.iter().map(|i| i % w).collect();
-            c.sort();
-            c.dedup();
-            c
-        };
+        let refine = pixels_to_refine(w, h, &first_pass(w, h, false));
         // Coverage changes between columns 1, 2 and 3; emission between 4 and 5.
-        assert_eq!(columns(&refine.silhouettes), [1, 2, 3]);
-        assert_eq!(columns(&refine.emitter_edges), [4, 5]);
+        assert_eq!(columns(w, &refine.silhouettes), [1, 2, 3]);
+        assert_eq!(columns(w, &refine.emitter_edges), [4, 5]);
         assert_eq!(refine.silhouettes.len() + refine.emitter_edges.len(), 5 * h as usize);
         assert_eq!(refine.rays_of(2), AOV_SILHOUETTE_SAMPLES);
         assert_eq!(refine.rays_of(5), AOV_REFINED_SAMPLES);
         assert_eq!(refine.rays_of(0), AOV_SAMPLES);
+    }
+
+    /// An emissive texture lighting up within one material is no emitter's edge; a pixel
+    /// that straddles two materials, one of them emitting, is.
+    #[test]
+    fn an_emissive_texture_is_not_refined_as_an_emitters_edge() {
+        let (w, h) = (6u32, 3u32);
+        let refine = pixels_to_refine(w, h, &first_pass(w, h, true));
+        assert_eq!(columns(w, &refine.silhouettes), [1, 2, 3]);
+        assert!(refine.emitter_edges.is_empty(), "{:?}", refine.emitter_edges);
+
+        let mut first = first_pass(w, h, true);
+        first[(w + 4) as usize].material = AOV_MIXED_MATERIALS;
+        first[(w + 4) as usize].emission = [0.5; 3];
+        let refine = pixels_to_refine(w, h, &first);
+        // The straddling pixel, and its neighbours that emit otherwise and read one material.
+        assert!(refine.emitter_edges.contains(&(w + 4)));
+        assert!(refine.emitter_edges.contains(&3) && !refine.emitter_edges.contains(&5));
     }
 }

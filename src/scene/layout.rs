@@ -52,6 +52,11 @@ pub const CAUSTICS_APART: u32 = 2;
 
 /// Marks "no index" in `u32` index fields (no emitter, missed ray, …).
 pub const INVALID_INDEX: u32 = u32::MAX;
+/// [`PixelAov::material`] of a pixel whose AOV rays all left the scene.
+pub const AOV_NO_MATERIAL: u32 = INVALID_INDEX;
+/// [`PixelAov::material`] of a pixel whose AOV rays read more than one material (or some
+/// read one and some left the scene).
+pub const AOV_MIXED_MATERIALS: u32 = u32::MAX - 1;
 
 gpu_struct! {
     /// One node of the flattened BVH: 32 bytes, the layout of pbrt-v4's `LinearBVHNode`.
@@ -664,6 +669,15 @@ gpu_struct! {
         /// Rays the pixel averaged (`AOV_SAMPLES`, or more on an edge: `AOV_SILHOUETTE_SAMPLES`,
         /// `AOV_REFINED_SAMPLES`).
         pub rays: u32,
+        /// The material the albedo was read from, where every ray of the pixel read the same
+        /// one; [`AOV_NO_MATERIAL`] where every ray left the scene; [`AOV_MIXED_MATERIALS`]
+        /// where the rays disagree. Tells an emitter's edge (a lamp beside the ceiling, two
+        /// materials) from an emissive texture's variation within one material
+        /// (`integrator::aov::pixels_to_refine`).
+        pub material: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 
