@@ -23,7 +23,8 @@ struct DenoiseParams {
 @group(0) @binding(4) var<storage, read_write> signal_out: array<vec4<f32>>;
 
 const SIGMA_LUMINANCE: f32 = 4.0;
-const SIGMA_NORMAL: f32 = 128.0;
+const SIGMA_NORMAL_SQUARINGS: u32 = 7u;
+const WEIGHT_EXPONENT_CUTOFF: f32 = 40.0;
 const SIGMA_DEPTH: f32 = 1.0;
 const SIGMA_EMISSION: f32 = 0.1;
 const SIGMA_COVERAGE: f32 = 1.0 / 16.0;
@@ -41,22 +42,37 @@ fn gaussian_weight(d: i32) -> f32 {
     return select(1.0 / 8.0, 1.0 / 4.0, d == 0);
 }
 
-fn edge_stopping(g_p: vec4<f32>, a_p: vec4<f32>, g_q: vec4<f32>, a_q: vec4<f32>, offset: f32, l_p: f32, s_q: vec4<f32>, sigma: f32) -> f32 {
+// The reciprocals a pixel's taps divide by (CPU twin: `CentreWeights`).
+struct CentreWeights {
+    inv_sigma: f32,
+    // At a Manhattan offset of 1, 2, 3 and 4 taps.
+    inv_depth_width: vec4<f32>,
+}
+
+fn edge_stopping(g_p: vec4<f32>, a_p: vec4<f32>, g_q: vec4<f32>, a_q: vec4<f32>, offset: i32, l_p: f32, s_q: vec4<f32>, centre: CentreWeights) -> f32 {
     let p_hit = g_p.w >= 0.0;
     let q_hit = g_q.w >= 0.0;
     if (p_hit != q_hit) {
         return 0.0;
     }
-    var weight = 1.0;
+    var normal = 1.0;
+    var exponent = 0.0;
     if (p_hit) {
-        let cos_nq = max(dot(g_p.xyz, g_q.xyz), 0.0);
-        weight *= pow(cos_nq, SIGMA_NORMAL);
-        weight *= exp(-abs(g_p.w - g_q.w) / (SIGMA_DEPTH * a_p.z * offset + 1e-6 * g_p.w + 1e-12));
+        normal = max(dot(g_p.xyz, g_q.xyz), 0.0);
+        for (var i = 0u; i < SIGMA_NORMAL_SQUARINGS; i++) {
+            normal *= normal;
+        }
+        exponent += abs(g_p.w - g_q.w) * centre.inv_depth_width[offset - 1];
     }
-    let emission = abs(a_p.x - a_q.x) / (SIGMA_EMISSION * max(a_p.x, a_q.x) + 1e-12);
-    let coverage = abs(a_p.y - a_q.y) / SIGMA_COVERAGE;
+    if (a_p.x != a_q.x) {
+        exponent += abs(a_p.x - a_q.x) / (SIGMA_EMISSION * max(a_p.x, a_q.x) + 1e-12);
+    }
     let l_q = luminance(s_q.xyz);
-    return weight * exp(-abs(l_p - l_q) / (sigma + 1e-10) - emission - coverage);
+    exponent += abs(l_p - l_q) * centre.inv_sigma + abs(a_p.y - a_q.y) * (1.0 / SIGMA_COVERAGE);
+    if (normal == 0.0 || exponent > WEIGHT_EXPONENT_CUTOFF) {
+        return 0.0;
+    }
+    return normal * exp(-exponent);
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -89,6 +105,8 @@ fn atrous_iteration(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let sigma = SIGMA_LUMINANCE * sqrt(max(var_sum / var_weight, 0.0));
     let l_p = luminance(s_p.xyz);
+    let depth_width = SIGMA_DEPTH * a_p.z * vec4<f32>(1.0, 2.0, 3.0, 4.0) * f32(step) + 1e-6 * g_p.w + 1e-12;
+    let centre_weights = CentreWeights(1.0 / (sigma + 1e-10), 1.0 / depth_width);
     var sum = vec3<f32>(0.0);
     var variance = 0.0;
     var weight_sum = 0.0;
@@ -104,7 +122,7 @@ fn atrous_iteration(@builtin(global_invocation_id) gid: vec3<u32>) {
             let h_q = kernel_weight(dx) * kernel_weight(dy);
             var weight = h_q;
             if (q != centre) {
-                weight = h_q * edge_stopping(g_p, a_p, guide[q], aux[q], f32((abs(dx) + abs(dy)) * step), l_p, s_q, sigma);
+                weight = h_q * edge_stopping(g_p, a_p, guide[q], aux[q], abs(dx) + abs(dy), l_p, s_q, centre_weights);
             }
             sum += weight * s_q.xyz;
             variance += weight * weight * s_q.w;

@@ -35,8 +35,17 @@ use super::DenoiseInput;
 pub const ITERATIONS: u32 = 5;
 /// The luminance weight's width in standard deviations of the centre's noise (SVGF's σ_l).
 pub const SIGMA_LUMINANCE: f32 = 4.0;
-/// The normal weight's exponent (SVGF's σ_n).
-pub const SIGMA_NORMAL: f32 = 128.0;
+/// The normal weight's exponent (SVGF's σ_n): 128, a power of two, so that cos^σ_n is
+/// [`SIGMA_NORMAL_SQUARINGS`] multiplications (`powf` and three `exp`s a tap had been half of
+/// the filter's time).
+pub const SIGMA_NORMAL: f32 = (1u32 << SIGMA_NORMAL_SQUARINGS) as f32;
+/// How many times cos is squared for the normal weight: σ_n = 2^7.
+pub const SIGMA_NORMAL_SQUARINGS: u32 = 7;
+/// A tap whose weight is e^−x with x above this gets weight 0 without the exponential: e⁻⁴⁰
+/// is 4·10⁻¹⁸, and the centre's own weight is at least h(0, 0) = 9/64, so such a tap moves
+/// the weighted mean by under 3·10⁻¹⁷ of its value, far below an f32's rounding unless it
+/// is 10⁹ times the centre's (and then its luminance weight is far past this anyway).
+pub const WEIGHT_EXPONENT_CUTOFF: f32 = 40.0;
 /// The depth weight's width in local depth gradients per pixel of offset (SVGF's σ_z).
 pub const SIGMA_DEPTH: f32 = 1.0;
 /// Below this albedo a channel is not demodulated (dividing by it would amplify its noise).
@@ -157,6 +166,14 @@ pub fn atrous_pixel(
     }
     let sigma = SIGMA_LUMINANCE * (var_sum / var_weight).max(0.0).sqrt();
     let l_p = luminance(s_p.truncate());
+    // What every tap divides by, taken once a pixel: the luminance tolerance, and the depth
+    // weight's width at each Manhattan offset (1 to 4 taps of `step` pixels).
+    let centre_weights = CentreWeights {
+        inv_sigma: 1.0 / (sigma + 1e-10),
+        inv_depth_width: std::array::from_fn(|k| {
+            1.0 / (SIGMA_DEPTH * a_p.z * ((k as i32 + 1) * step) as f32 + 1e-6 * g_p.w + 1e-12)
+        }),
+    };
     let mut sum = Vec3::ZERO;
     let mut var = 0.0f32;
     let mut weight_sum = 0.0f32;
@@ -172,8 +189,8 @@ pub fn atrous_pixel(
             let weight = if q == centre {
                 h_q
             } else {
-                let offset = ((dx.abs() + dy.abs()) * step) as f32;
-                h_q * edge_stopping((g_p, a_p), (g_q, aux[q]), offset, l_p, s_q, sigma)
+                let offset = (dx.abs() + dy.abs()) as usize;
+                h_q * edge_stopping((g_p, a_p), (g_q, aux[q]), offset, l_p, s_q, &centre_weights)
             };
             sum += weight * s_q.truncate();
             var += weight * weight * s_q.w;
@@ -184,34 +201,50 @@ pub fn atrous_pixel(
     (sum / weight_sum).extend(var / (weight_sum * weight_sum))
 }
 
+/// The reciprocals a pixel's taps divide by ([`edge_stopping`]).
+struct CentreWeights {
+    /// 1 / the luminance tolerance.
+    inv_sigma: f32,
+    /// 1 / the depth weight's width at a Manhattan offset of 1, 2, 3 and 4 taps.
+    inv_depth_width: [f32; 4],
+}
+
 /// The product of SVGF's three edge-stopping functions (eq. 3–5) and the emission and
 /// coverage weights (module documentation) between the centre (guides `g_p`, `a_p`,
-/// luminance `l_p`, luminance tolerance `sigma`) and tap `q` (guides `g_q`, `a_q`, signal
-/// `s_q`) `offset` pixels away (Manhattan).
+/// luminance `l_p`, its reciprocal widths `centre`) and tap `q` (guides `g_q`, `a_q`,
+/// signal `s_q`) `offset` taps away (Manhattan, 1 to 4).
 #[inline]
 fn edge_stopping(
     (g_p, a_p): (Vec4, Vec4),
     (g_q, a_q): (Vec4, Vec4),
-    offset: f32,
+    offset: usize,
     l_p: f32,
     s_q: Vec4,
-    sigma: f32,
+    centre: &CentreWeights,
 ) -> f32 {
     let (p_hit, q_hit) = (g_p.w >= 0.0, g_q.w >= 0.0);
     if p_hit != q_hit {
         return 0.0;
     }
-    let mut weight = 1.0;
+    // The weights' exponents are summed and taken once: e^−a·e^−b = e^−(a+b).
+    let mut normal = 1.0;
+    let mut exponent = 0.0;
     if p_hit {
-        let cos = g_p.truncate().dot(g_q.truncate()).max(0.0);
-        weight *= cos.powf(SIGMA_NORMAL);
-        let dz_p = a_p.z;
-        weight *= (-(g_p.w - g_q.w).abs() / (SIGMA_DEPTH * dz_p * offset + 1e-6 * g_p.w + 1e-12)).exp();
+        normal = g_p.truncate().dot(g_q.truncate()).max(0.0);
+        for _ in 0..SIGMA_NORMAL_SQUARINGS {
+            normal *= normal;
+        }
+        exponent += (g_p.w - g_q.w).abs() * centre.inv_depth_width[offset - 1];
     }
-    let emission = (a_p.x - a_q.x).abs() / (SIGMA_EMISSION * a_p.x.max(a_q.x) + 1e-12);
-    let coverage = (a_p.y - a_q.y).abs() / SIGMA_COVERAGE;
+    if a_p.x != a_q.x {
+        exponent += (a_p.x - a_q.x).abs() / (SIGMA_EMISSION * a_p.x.max(a_q.x) + 1e-12);
+    }
     let l_q = luminance(s_q.truncate());
-    weight * (-(l_p - l_q).abs() / (sigma + 1e-10) - emission - coverage).exp()
+    exponent += (l_p - l_q).abs() * centre.inv_sigma + (a_p.y - a_q.y).abs() * (1.0 / SIGMA_COVERAGE);
+    if normal == 0.0 || exponent > WEIGHT_EXPONENT_CUTOFF {
+        return 0.0;
+    }
+    normal * (-exponent).exp()
 }
 
 /// One iteration over the whole image, rows in parallel.

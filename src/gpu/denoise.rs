@@ -93,3 +93,38 @@ pub fn denoise_atrous(ctx: &GpuContext, input: &DenoiseInput) -> Result<Vec<Vec3
     let filtered = finish(&prepared, &out);
     Ok(crate::denoise::edges::reconstruct_edges(input, &prepared, &out, &filtered))
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::denoise::atrous;
+
+    /// The WGSL twin's constants are the CPU filter's, read from the shader as naga parses
+    /// it (no "must match" comment to keep true by hand).
+    #[test]
+    fn the_shaders_constants_are_the_cpus() {
+        let module = naga::front::wgsl::parse_str(include_str!("../../shaders/denoise.wgsl")).unwrap();
+        let constant = |name: &str| -> f64 {
+            let (_, c) = module
+                .constants
+                .iter()
+                .find(|(_, c)| c.name.as_deref() == Some(name))
+                .unwrap_or_else(|| panic!("{name} is missing from shaders/denoise.wgsl"));
+            match module.global_expressions[c.init] {
+                naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
+                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
+                ref other => panic!("{name}: unexpected initializer {other:?}"),
+            }
+        };
+        let expected: &[(&str, f64)] = &[
+            ("SIGMA_LUMINANCE", atrous::SIGMA_LUMINANCE as f64),
+            ("SIGMA_NORMAL_SQUARINGS", atrous::SIGMA_NORMAL_SQUARINGS as f64),
+            ("WEIGHT_EXPONENT_CUTOFF", atrous::WEIGHT_EXPONENT_CUTOFF as f64),
+            ("SIGMA_DEPTH", atrous::SIGMA_DEPTH as f64),
+            ("SIGMA_EMISSION", atrous::SIGMA_EMISSION as f64),
+            ("SIGMA_COVERAGE", atrous::SIGMA_COVERAGE as f64),
+        ];
+        for &(name, value) in expected {
+            assert_eq!(constant(name), value, "{name}");
+        }
+    }
+}
