@@ -103,18 +103,7 @@ mod tests {
     #[test]
     fn the_shaders_constants_are_the_cpus() {
         let module = naga::front::wgsl::parse_str(include_str!("../../shaders/denoise.wgsl")).unwrap();
-        let constant = |name: &str| -> f64 {
-            let (_, c) = module
-                .constants
-                .iter()
-                .find(|(_, c)| c.name.as_deref() == Some(name))
-                .unwrap_or_else(|| panic!("{name} is missing from shaders/denoise.wgsl"));
-            match module.global_expressions[c.init] {
-                naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
-                naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
-                ref other => panic!("{name}: unexpected initializer {other:?}"),
-            }
-        };
+        let constant = |name: &str| crate::gpu::shader::literal_constant(&module, name);
         let expected: &[(&str, f64)] = &[
             ("SIGMA_LUMINANCE", atrous::SIGMA_LUMINANCE as f64),
             ("SIGMA_NORMAL_SQUARINGS", atrous::SIGMA_NORMAL_SQUARINGS as f64),

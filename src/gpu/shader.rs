@@ -154,6 +154,23 @@ pub fn parse_and_validate(source: &str, files: &[ShaderFile]) -> Result<naga::Mo
     Ok(module)
 }
 
+/// The value of `module`'s constant `name`, a literal (the tests that read a WGSL twin's
+/// constants against the Rust ones).
+#[cfg(test)]
+pub(crate) fn literal_constant(module: &naga::Module, name: &str) -> f64 {
+    let (_, c) = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("constant {name} is missing from the WGSL"));
+    match module.global_expressions[c.init] {
+        naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
+        naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
+        naga::Expression::Literal(naga::Literal::I32(v)) => v as f64,
+        ref other => panic!("{name}: unexpected initializer {other:?}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -320,21 +337,6 @@ mod tests {
             ("PHOTONS_CAUSTIC", sppm::PhotonKind::Caustic.index() as f64),
         ] {
             assert_eq!(literal_constant(&sppm_module, name), value, "constant {name}: WGSL vs Rust");
-        }
-    }
-
-    /// The value of `module`'s constant `name`, a literal.
-    fn literal_constant(module: &naga::Module, name: &str) -> f64 {
-        let (_, c) = module
-            .constants
-            .iter()
-            .find(|(_, c)| c.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("constant {name} is missing from the WGSL"));
-        match module.global_expressions[c.init] {
-            naga::Expression::Literal(naga::Literal::U32(v)) => v as f64,
-            naga::Expression::Literal(naga::Literal::F32(v)) => v as f64,
-            naga::Expression::Literal(naga::Literal::I32(v)) => v as f64,
-            ref other => panic!("{name}: unexpected initializer {other:?}"),
         }
     }
 }
