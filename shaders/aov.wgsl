@@ -1,6 +1,7 @@
 // Auxiliary images (AOVs): each pixel's albedo, normal, depth, emission and coverage averaged
-// over AOV_SAMPLES stratified camera rays (more on silhouettes and emitters' edges, as the
-// host's list and `frame.aov_rays` say), followed through delta lobes. CPU twin:
+// over AOV_SAMPLES stratified camera rays (more where features vary, on silhouettes and on
+// emitters' edges, as the host's list and `frame.aov_rays` say), followed through delta
+// lobes. CPU twin:
 // src/integrator/aov.rs, which says why the rays are stratified, where their numbers come
 // from, which pixels are refined, and what a delta chain gives.
 
@@ -8,7 +9,7 @@
 // (`RenderSettings::aovs`), else one unused element.
 @group(0) @binding(21) var<storage, read_write> aovs: array<PixelAov>;
 
-const AOV_SAMPLES: u32 = 16u;
+const AOV_SAMPLES: u32 = 4u;
 const AOV_MAX_DELTA_BOUNCES: u32 = 8u;
 const AOV_SAMPLE_INDEX: u32 = 0xffffffffu;
 

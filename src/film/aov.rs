@@ -26,7 +26,7 @@ pub struct Aovs {
     /// Mean emitted radiance of the surface the albedo is read from (`PixelAov::emission`).
     pub emission: Vec<Vec3>,
     /// The share of the pixel's AOV rays that hit a surface (`PixelAov::hits` /
-    /// `AOV_SAMPLES`): below 1 on a silhouette against the background.
+    /// `PixelAov::rays`): below 1 on a silhouette against the background.
     pub coverage: Vec<f32>,
 }
 

@@ -215,7 +215,16 @@ pub fn write_exr_with(film: &Film, meta: &RenderMetadata, extras: &ExrExtras, pa
         put("pathlight.denoiser", text(denoiser.name().to_string()));
     }
     if extras.aovs.is_some() {
-        put("pathlight.aovSamples", text(crate::integrator::aov::AOV_SAMPLES.to_string()));
+        use crate::integrator::aov::{
+            AOV_REFINED_SAMPLES, AOV_SAMPLES, AOV_SILHOUETTE_SAMPLES, AOV_VARYING_SAMPLES,
+        };
+        put(
+            "pathlight.aovSamples",
+            text(format!(
+                "{AOV_SAMPLES} rays a pixel; {AOV_VARYING_SAMPLES} where its features vary, \
+                 {AOV_SILHOUETTE_SAMPLES} on silhouettes, {AOV_REFINED_SAMPLES} on emitters' edges"
+            )),
+        );
     }
     if let Some(relmse) = film.predicted_relmse() {
         put(PREDICTED_RELMSE_ATTRIBUTE, AttributeValue::F64(relmse));

@@ -10,7 +10,7 @@ use super::context::{GpuContext, Kernel};
 use super::tables::{self, UniformTables};
 use crate::error::{Error, Result};
 use crate::film::Film;
-use crate::integrator::aov::{AOV_REFINED_SAMPLES, AOV_SAMPLES, AOV_SILHOUETTE_SAMPLES};
+use crate::integrator::aov::AOV_VARYING_SAMPLES;
 use crate::integrator::bdpt::{BdptStats, BDPT_MAX_VERTICES};
 use crate::integrator::{CausticSums, Integrator, CAUSTIC_SUM_WORDS};
 use crate::render::{Backend, RenderSettings};
@@ -1448,8 +1448,9 @@ impl GpuBackend {
     }
 }
 
-/// Pixels per submit of the AOV pass: 2¹⁸ pixels of 16 rays each, about 4 M rays, a few
-/// milliseconds on a hardware GPU and about a second on lavapipe.
+/// Pixels per submit of the AOV pass: 2¹⁸ pixels of its first 4 rays each, about 1 M rays;
+/// the refinement's slices take at most 2¹⁸ × 16 rays, about 4 M, a few milliseconds on a
+/// hardware GPU and about a second on lavapipe.
 const AOV_BAND_PIXELS: u32 = 1 << 18;
 
 impl GpuBackend {
@@ -1464,8 +1465,8 @@ impl GpuBackend {
         // Textures at the render's level of detail, as on the CPU (`render_aovs`).
         let cone =
             crate::scene::camera::camera_ray_cone(&self.camera, self.settings.height, self.settings.spp);
-        // In bands of at most AOV_BAND_PIXELS pixels (16 rays each), so that no submit runs
-        // long; they are queued together and waited for once.
+        // In bands of at most AOV_BAND_PIXELS pixels (AOV_SAMPLES rays each), so that no
+        // submit runs long; they are queued together and waited for once.
         let (width, height) = (self.settings.width, self.settings.height);
         let band_rows = (AOV_BAND_PIXELS / width).clamp(1, height);
         let mut last = None;
@@ -1481,23 +1482,21 @@ impl GpuBackend {
         if let Some(index) = last {
             self.wait(index)?;
         }
-        // The second pass over the pixels the first one finds on silhouettes and emitters'
-        // edges, decided on the host as on the CPU (`pixels_to_refine`).
+        // The second pass over the pixels the first one finds varying, on silhouettes and on
+        // emitters' edges, decided on the host as on the CPU (`pixels_to_refine`).
         let first = self.read_back::<PixelAov>(&self.aovs)?;
         let refine = crate::integrator::aov::pixels_to_refine(width, height, &first);
-        // One list on the device: the silhouettes, then the emitters' edges.
-        let list: Vec<u32> = refine.silhouettes.iter().chain(&refine.emitter_edges).copied().collect();
+        // One list on the device, its parts in `AovRefinement::lists`'s order.
+        let list: Vec<u32> = refine.lists().iter().flat_map(|(part, _)| part.iter().copied()).collect();
         if !list.is_empty() {
             self.ctx.queue.write_buffer(&self.aov_refine_list, 0, bytemuck::cast_slice(&list));
         }
-        let parts = [
-            (0, refine.silhouettes.len() as u32, AOV_SILHOUETTE_SAMPLES),
-            (refine.silhouettes.len() as u32, refine.emitter_edges.len() as u32, AOV_REFINED_SAMPLES),
-        ];
         let mut last = None;
-        for (first_entry, entries, rays) in parts {
-            // Slices of at most AOV_BAND_PIXELS × AOV_SAMPLES rays.
-            let slice = AOV_BAND_PIXELS * AOV_SAMPLES / rays;
+        let mut first_entry = 0;
+        for (part, rays) in refine.lists() {
+            let entries = part.len() as u32;
+            // Slices of at most AOV_BAND_PIXELS × AOV_VARYING_SAMPLES rays.
+            let slice = AOV_BAND_PIXELS * AOV_VARYING_SAMPLES / rays;
             for start in (0..entries).step_by(slice as usize) {
                 let count = slice.min(entries - start);
                 let params = FrameParams {
@@ -1509,6 +1508,7 @@ impl GpuBackend {
                 // `aov_refine`'s workgroups of 64 over the slice's list entries.
                 last = Some(self.submit_groups(&kernels.refine, params, (count.div_ceil(64), 1, 1)));
             }
+            first_entry += entries;
         }
         if let Some(index) = last {
             self.wait(index)?;

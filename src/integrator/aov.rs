@@ -34,11 +34,26 @@ use crate::scene::layout::{Camera, PixelAov, AOV_MIXED_MATERIALS, AOV_NO_MATERIA
 use crate::scene::texture::textured_material;
 use crate::scene::FlatScene;
 
-/// Camera rays per pixel the AOVs average, one in each cell of a 4 × 4 grid over the pixel:
-/// 16 place them about as finely as a 16-spp render places its samples (a further doubling
-/// cost more time than the denoiser it guides and changed its error by under 1% on the
-/// Cornell box).
-pub const AOV_SAMPLES: u32 = 16;
+/// Camera rays per pixel of the first AOV pass, one in each cell of a 2 × 2 grid over the
+/// pixel: where the surface under a pixel is smooth (its features vary at most linearly
+/// across it, which a stratified grid's mean states to a fraction of the step to the next
+/// pixel) four state its mean; where they do not, a neighbour's differ, and the pixel is
+/// refined ([`pixels_to_refine`]).
+pub const AOV_SAMPLES: u32 = 4;
+/// Rays per pixel where the first pass's features differ from a neighbour's
+/// ([`pixels_to_refine`]), one in each cell of a 4 × 4 grid: 16 place them about as finely
+/// as a 16-spp render places its samples (a further doubling cost more time than the
+/// denoiser it guides and changed its error by under 1% on the Cornell box).
+pub const AOV_VARYING_SAMPLES: u32 = 16;
+/// A neighbour's unit normal at more than this angle's cosine from the pixel's (about 10°),
+/// its albedo more than [`AOV_VARYING_ALBEDO`] from it in a channel, its depth more than
+/// [`AOV_VARYING_DEPTH`] of the pixel's from it, its emission or its material other: the
+/// pixel's features vary across it faster than four rays state ([`pixels_to_refine`]).
+pub const AOV_VARYING_COS: f32 = 0.985;
+/// See [`AOV_VARYING_COS`].
+pub const AOV_VARYING_ALBEDO: f32 = 0.02;
+/// See [`AOV_VARYING_COS`].
+pub const AOV_VARYING_DEPTH: f32 = 0.05;
 /// Rays per pixel on an emitter's edge ([`pixels_to_refine`]), one in each cell of a
 /// 16 × 16 grid: there the denoiser reads emission as the share of the pixel it takes
 /// (`crate::denoise::edges` puts the pixel's own emission back after its regression), and
@@ -179,9 +194,11 @@ pub fn pixel_aov(
 }
 
 /// The pixels the second AOV pass refines ([`pixels_to_refine`]), row-major indices,
-/// ascending in each list.
+/// ascending in each list; a pixel is in one list at most.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct AovRefinement {
+    /// Features that vary across the pixel: [`AOV_VARYING_SAMPLES`] rays each.
+    pub varying: Vec<u32>,
     /// Silhouettes: [`AOV_SILHOUETTE_SAMPLES`] rays each.
     pub silhouettes: Vec<u32>,
     /// Emitters' edges: [`AOV_REFINED_SAMPLES`] rays each.
@@ -189,25 +206,45 @@ pub struct AovRefinement {
 }
 
 impl AovRefinement {
+    /// Each list with the rays its pixels take, in the order both backends refine them.
+    pub fn lists(&self) -> [(&[u32], u32); 3] {
+        [
+            (&self.varying, AOV_VARYING_SAMPLES),
+            (&self.silhouettes, AOV_SILHOUETTE_SAMPLES),
+            (&self.emitter_edges, AOV_REFINED_SAMPLES),
+        ]
+    }
+
     /// The rays pixel `i` takes in all: its refinement's, else the first pass's.
     pub fn rays_of(&self, i: u32) -> u32 {
-        if self.emitter_edges.binary_search(&i).is_ok() {
-            AOV_REFINED_SAMPLES
-        } else if self.silhouettes.binary_search(&i).is_ok() {
-            AOV_SILHOUETTE_SAMPLES
-        } else {
-            AOV_SAMPLES
-        }
+        self.lists()
+            .into_iter()
+            .find(|(list, _)| list.binary_search(&i).is_ok())
+            .map_or(AOV_SAMPLES, |(_, rays)| rays)
     }
 }
 
-/// The pixels of a first AOV pass that straddle a silhouette or an emitter's edge, which the
-/// second pass refines. An emitter's edge is where one surface emits and another beside it
+/// Do two first-pass pixels' features differ by more than a smooth surface's step from one
+/// pixel to the next ([`AOV_VARYING_COS`])?
+fn features_differ(p: &PixelAov, q: &PixelAov) -> bool {
+    let (np, nq) = (Vec3::from(p.normal).normalize_or_zero(), Vec3::from(q.normal).normalize_or_zero());
+    let (ep, eq) = (Vec3::from(p.emission), Vec3::from(q.emission));
+    p.material != q.material
+        || (np != Vec3::ZERO && nq != Vec3::ZERO && np.dot(nq) < AOV_VARYING_COS)
+        || (Vec3::from(p.albedo) - Vec3::from(q.albedo)).abs().max_element() > AOV_VARYING_ALBEDO
+        || (p.depth - q.depth).abs() > AOV_VARYING_DEPTH * p.depth.max(q.depth)
+        || (ep - eq).abs().max_element() > 0.01 * ep.max(eq).max_element()
+}
+
+/// The pixels of a first AOV pass that straddle a silhouette or an emitter's edge, or whose
+/// features vary across them, which the second pass refines. An emitter's edge is where one surface emits and another beside it
 /// does not: the pixel's rays read more than one material and some of them an emitter, or a
 /// pixel of its 3 × 3 neighbourhood sees an emitter where the pixel sees none (or the other
 /// way round) and reads another material (a thin emitter's edge can miss all 16 first rays
 /// of a pixel it crosses, so the neighbours tell). A silhouette, otherwise: its coverage is
-/// partial, or a neighbour's differs.
+/// partial, or a neighbour's differs. Varying, otherwise: its rays read more than one
+/// material, or a neighbour's normal, albedo, depth, emission or material differs from its
+/// own beyond [`AOV_VARYING_COS`] and its companions.
 ///
 /// Within one material an emissive texture's variation is no emitter's edge, even where it
 /// goes from emitting to dark: its texels are no brighter than the texture's own range,
@@ -225,18 +262,23 @@ pub fn pixels_to_refine(width: u32, height: u32, first: &[PixelAov]) -> AovRefin
         let (c, e) = (coverage(p), emits(p));
         let partial = c > 0.0 && c < 1.0;
         let (x, y) = (i % w, i / w);
-        let (mut coverage_differs, mut emitter_beside) = (false, false);
+        let (mut coverage_differs, mut emitter_beside, mut varies) =
+            // Its own rays' normals spread: their mean is short.
+            (false, false, p.material == AOV_MIXED_MATERIALS || (c == 1.0 && Vec3::from(p.normal).length() < AOV_VARYING_COS));
         for qy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
             for qx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
                 let q = &first[qy * w + qx];
                 coverage_differs |= coverage(q) != c;
                 emitter_beside |= emits(q) != e && q.material != p.material;
+                varies |= features_differ(p, q);
             }
         }
         if emitter_beside || (e && p.material == AOV_MIXED_MATERIALS) {
             out.emitter_edges.push(i as u32);
         } else if partial || coverage_differs {
             out.silhouettes.push(i as u32);
+        } else if varies {
+            out.varying.push(i as u32);
         }
     }
     out
@@ -264,9 +306,7 @@ pub fn render_aovs(
         })
         .collect();
     let refine = pixels_to_refine(width, height, &aovs);
-    for (list, rays) in
-        [(&refine.silhouettes, AOV_SILHOUETTE_SAMPLES), (&refine.emitter_edges, AOV_REFINED_SAMPLES)]
-    {
+    for (list, rays) in refine.lists() {
         let refined: Vec<PixelAov> = list
             .par_iter()
             .map(|&i| pixel_aov(scene, camera, size, (i % width, i / width), seed, rays, cone))
@@ -330,6 +370,9 @@ mod tests {
         let refine = pixels_to_refine(w, h, &first_pass(w, h, true));
         assert_eq!(columns(w, &refine.silhouettes), [1, 2, 3]);
         assert!(refine.emitter_edges.is_empty(), "{:?}", refine.emitter_edges);
+        // The texture's step is refined as any feature's is.
+        assert_eq!(columns(w, &refine.varying), [4, 5]);
+        assert_eq!(refine.rays_of(5), AOV_VARYING_SAMPLES);
 
         let mut first = first_pass(w, h, true);
         first[(w + 4) as usize].material = AOV_MIXED_MATERIALS;
@@ -338,5 +381,40 @@ mod tests {
         // The straddling pixel, and its neighbours that emit otherwise and read one material.
         assert!(refine.emitter_edges.contains(&(w + 4)));
         assert!(refine.emitter_edges.contains(&3) && !refine.emitter_edges.contains(&5));
+    }
+
+    /// A surface seen whole by every pixel of a 6 × 3 first pass, its normal turning by
+    /// `turn(x)` degrees about y at column x, its albedo `albedo(x)`.
+    fn surface(turn: impl Fn(u32) -> f32, albedo: impl Fn(u32) -> f32) -> Vec<PixelAov> {
+        (0..18u32)
+            .map(|i| {
+                let a = turn(i % 6).to_radians();
+                PixelAov {
+                    albedo: [albedo(i % 6); 3],
+                    depth: 1.0,
+                    normal: [a.sin(), 0.0, a.cos()],
+                    hits: AOV_SAMPLES,
+                    rays: AOV_SAMPLES,
+                    ..PixelAov::default()
+                }
+            })
+            .collect()
+    }
+
+    /// A smooth surface keeps the first pass's rays; a crease, an albedo step, or a pixel
+    /// whose own rays' normals spread is refined with [`AOV_VARYING_SAMPLES`].
+    #[test]
+    fn pixels_whose_features_vary_are_refined() {
+        let refine = |first: &[PixelAov]| pixels_to_refine(6, 3, first);
+        let smooth = refine(&surface(|x| 2.0 * x as f32, |_| 0.5));
+        assert_eq!(smooth, AovRefinement::default());
+        let crease = refine(&surface(|x| if x < 3 { 0.0 } else { 45.0 }, |_| 0.5));
+        assert_eq!(columns(6, &crease.varying), [2, 3]);
+        assert!(crease.silhouettes.is_empty() && crease.emitter_edges.is_empty());
+        let step = refine(&surface(|_| 0.0, |x| if x < 4 { 0.5 } else { 0.55 }));
+        assert_eq!(columns(6, &step.varying), [3, 4]);
+        let mut spread = surface(|_| 0.0, |_| 0.5);
+        spread[7].normal = [0.0, 0.0, 0.9];
+        assert_eq!(refine(&spread).varying, [7]);
     }
 }

@@ -453,8 +453,7 @@ gpu_struct! {
         pub ic_gather_round: u32,
         pub ic_gather_polar_strata: u32,
         /// The AOV pass's refinement (shaders/aov.wgsl `aov_refine`): the rays each pixel of
-        /// the dispatch's list takes (`integrator::aov::AOV_SILHOUETTE_SAMPLES` or
-        /// `AOV_REFINED_SAMPLES`).
+        /// the dispatch's list takes (`integrator::aov::AovRefinement::lists`).
         pub aov_rays: u32,
         pub _pad0: u32,
         pub _pad1: u32,
@@ -666,8 +665,8 @@ gpu_struct! {
         /// emitter's edge apart from the surface beside it, which has the same albedo, normal
         /// and depth.
         pub emission: [f32; 3],
-        /// Rays the pixel averaged (`AOV_SAMPLES`, or more on an edge: `AOV_SILHOUETTE_SAMPLES`,
-        /// `AOV_REFINED_SAMPLES`).
+        /// Rays the pixel averaged (`AOV_SAMPLES`, or more where it was refined:
+        /// `AOV_VARYING_SAMPLES`, `AOV_SILHOUETTE_SAMPLES`, `AOV_REFINED_SAMPLES`).
         pub rays: u32,
         /// The material the albedo was read from, where every ray of the pixel read the same
         /// one; [`AOV_NO_MATERIAL`] where every ray left the scene; [`AOV_MIXED_MATERIALS`]
