@@ -7,9 +7,9 @@
 //!
 //! Each pixel averages [`AOV_SAMPLES`] camera rays, stratified over the pixel as the
 //! render's box filter places its samples, so that the guides are anti-aliased as the image
-//! is (an aliased guide puts its staircase into a denoised edge), then more on edges
-//! ([`pixels_to_refine`]): [`AOV_SILHOUETTE_SAMPLES`] on silhouettes, [`AOV_REFINED_SAMPLES`]
-//! on emitters' edges. Their random numbers come from the independent sampler at sample
+//! is (an aliased guide puts its staircase into a denoised edge), then more where they vary
+//! ([`pixels_to_refine`]): [`AOV_VARYING_SAMPLES`] where a neighbour's features differ,
+//! [`AOV_SILHOUETTE_SAMPLES`] on silhouettes, [`AOV_REFINED_SAMPLES`] on emitters' edges. Their random numbers come from the independent sampler at sample
 //! indices the render never reaches ([`AOV_SAMPLE_INDEX`]), so
 //! the guides' jitter is independent of the image's noise: a denoiser weighting by features
 //! that correlate with the noise it removes would keep part of it (Rousselle et al. 2013
@@ -237,21 +237,23 @@ fn features_differ(p: &PixelAov, q: &PixelAov) -> bool {
 }
 
 /// The pixels of a first AOV pass that straddle a silhouette or an emitter's edge, or whose
-/// features vary across them, which the second pass refines. An emitter's edge is where one surface emits and another beside it
-/// does not: the pixel's rays read more than one material and some of them an emitter, or a
-/// pixel of its 3 × 3 neighbourhood sees an emitter where the pixel sees none (or the other
-/// way round) and reads another material (a thin emitter's edge can miss all 16 first rays
-/// of a pixel it crosses, so the neighbours tell). A silhouette, otherwise: its coverage is
-/// partial, or a neighbour's differs. Varying, otherwise: its rays read more than one
-/// material, or a neighbour's normal, albedo, depth, emission or material differs from its
-/// own beyond [`AOV_VARYING_COS`] and its companions.
+/// features vary across them, which the second pass refines.
+/// * An emitter's edge is where one surface emits and another beside it does not: the
+///   pixel's rays read more than one material and some of them an emitter, or a pixel of
+///   its 3 × 3 neighbourhood sees an emitter where the pixel sees none (or the other way
+///   round) and reads another material (a thin emitter's edge can miss all the first rays
+///   of a pixel it crosses, so the neighbours tell).
+/// * A silhouette, otherwise: its coverage is partial, or a neighbour's differs.
+/// * Varying, otherwise: its rays read more than one material or their normals spread, or a
+///   neighbour's normal, albedo, depth, emission or material differs from its own beyond
+///   [`AOV_VARYING_COS`] and its companions.
 ///
 /// Within one material an emissive texture's variation is no emitter's edge, even where it
 /// goes from emitting to dark: its texels are no brighter than the texture's own range,
-/// which 16 rays state as well as they state an albedo texture, while a lamp beside a
-/// ceiling may be a hundred times brighter than the surface it lights. Refining every
-/// emitting-to-dark step of DamagedHelmet's emissive texture with 256 rays (5,270 pixels
-/// at 512²) took half its AOV pass (`bench/history/denoising.md`).
+/// which [`AOV_VARYING_SAMPLES`] rays state as well as they state an albedo texture, while
+/// a lamp beside a ceiling may be a hundred times brighter than the surface it lights.
+/// Refining every emitting-to-dark step of DamagedHelmet's emissive texture with 256 rays
+/// (5,270 pixels at 512²) took half its AOV pass (`bench/history/denoising.md`).
 pub fn pixels_to_refine(width: u32, height: u32, first: &[PixelAov]) -> AovRefinement {
     let (w, h) = (width as usize, height as usize);
     let coverage = |p: &PixelAov| p.hits as f32 / p.rays.max(1) as f32;
