@@ -105,7 +105,8 @@ fn atrous_iteration(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let sigma = SIGMA_LUMINANCE * sqrt(max(var_sum / var_weight, 0.0));
     let l_p = luminance(s_p.xyz);
-    let depth_width = SIGMA_DEPTH * a_p.z * vec4<f32>(1.0, 2.0, 3.0, 4.0) * f32(step) + 1e-6 * g_p.w + 1e-12;
+    // As the CPU's `CentreWeights`: the offset in pixels first, then the width.
+    let depth_width = SIGMA_DEPTH * a_p.z * (vec4<f32>(1.0, 2.0, 3.0, 4.0) * f32(step)) + 1e-6 * g_p.w + 1e-12;
     let centre_weights = CentreWeights(1.0 / (sigma + 1e-10), 1.0 / depth_width);
     var sum = vec3<f32>(0.0);
     var variance = 0.0;

@@ -36,8 +36,8 @@ pub const ITERATIONS: u32 = 5;
 /// The luminance weight's width in standard deviations of the centre's noise (SVGF's σ_l).
 pub const SIGMA_LUMINANCE: f32 = 4.0;
 /// The normal weight's exponent (SVGF's σ_n): 128, a power of two, so that cos^σ_n is
-/// [`SIGMA_NORMAL_SQUARINGS`] multiplications (`powf` and three `exp`s a tap had been half of
-/// the filter's time).
+/// [`SIGMA_NORMAL_SQUARINGS`] multiplications (a `powf` and two `exp`s a tap had been a
+/// quarter of the filter's profile, `bench/history/denoising.md`).
 pub const SIGMA_NORMAL: f32 = (1u32 << SIGMA_NORMAL_SQUARINGS) as f32;
 /// How many times cos is squared for the normal weight: σ_n = 2^7.
 pub const SIGMA_NORMAL_SQUARINGS: u32 = 7;

@@ -54,6 +54,8 @@ pub const AOV_VARYING_COS: f32 = 0.985;
 pub const AOV_VARYING_ALBEDO: f32 = 0.02;
 /// See [`AOV_VARYING_COS`].
 pub const AOV_VARYING_DEPTH: f32 = 0.05;
+/// See [`AOV_VARYING_COS`]: emission differs by more than this share of the brighter.
+pub const AOV_VARYING_EMISSION: f32 = 0.01;
 /// Rays per pixel on an emitter's edge ([`pixels_to_refine`]), one in each cell of a
 /// 16 × 16 grid: there the denoiser reads emission as the share of the pixel it takes
 /// (`crate::denoise::edges` puts the pixel's own emission back after its regression), and
@@ -233,7 +235,7 @@ fn features_differ(p: &PixelAov, q: &PixelAov) -> bool {
         || (np != Vec3::ZERO && nq != Vec3::ZERO && np.dot(nq) < AOV_VARYING_COS)
         || (Vec3::from(p.albedo) - Vec3::from(q.albedo)).abs().max_element() > AOV_VARYING_ALBEDO
         || (p.depth - q.depth).abs() > AOV_VARYING_DEPTH * p.depth.max(q.depth)
-        || (ep - eq).abs().max_element() > 0.01 * ep.max(eq).max_element()
+        || (ep - eq).abs().max_element() > AOV_VARYING_EMISSION * ep.max(eq).max_element()
 }
 
 /// The pixels of a first AOV pass that straddle a silhouette or an emitter's edge, or whose
@@ -264,9 +266,10 @@ pub fn pixels_to_refine(width: u32, height: u32, first: &[PixelAov]) -> AovRefin
         let (c, e) = (coverage(p), emits(p));
         let partial = c > 0.0 && c < 1.0;
         let (x, y) = (i % w, i / w);
-        let (mut coverage_differs, mut emitter_beside, mut varies) =
-            // Its own rays' normals spread: their mean is short.
-            (false, false, p.material == AOV_MIXED_MATERIALS || (c == 1.0 && Vec3::from(p.normal).length() < AOV_VARYING_COS));
+        // Its own rays read several materials, or their normals spread (their mean is short).
+        let own_rays_differ = p.material == AOV_MIXED_MATERIALS
+            || (c == 1.0 && Vec3::from(p.normal).length() < AOV_VARYING_COS);
+        let (mut coverage_differs, mut emitter_beside, mut varies) = (false, false, own_rays_differ);
         for qy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
             for qx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
                 let q = &first[qy * w + qx];
