@@ -228,9 +228,9 @@ fn regress(input: &DenoiseInput, p: usize, filtered: &[Vec3], filtered_variance:
 /// This replaced taking the fit whole within 2σ and the raw value beyond: a highlight's raw
 /// value has a large variance in absolute terms, so fits 2σ below it were taken, and the
 /// built-in filter lost 5.8% of DamagedHelmet's light at 256², 16 spp (pixels of 14.8 in
-/// the reference, 17.3 raw, came out 0.12). The blend lowered the helmet's denoised relMSE
-/// from 0.94–1.15× the raw image's to 1.46–1.73× below it, and the Cornell box's from
-/// 7.5–7.7× to 8.2–8.3× (seeds 2, 3 and 7; `bench/history/denoising.md`). Radiance is not
+/// the reference, 17.3 raw, came out 0.12). The blend took the helmet's raw ÷ denoised relMSE
+/// from 0.94–1.15× to 1.46–1.73×, and the Cornell box's from 7.5–7.7× to 8.2–8.3× (seeds 2,
+/// 3 and 7; `bench/history/denoising.md`). Radiance is not
 /// negative, and neither is the result.
 pub fn blend_with_raw(raw: Vec3, fit: Vec3, raw_variance: f32) -> Vec3 {
     let d = fit - raw;

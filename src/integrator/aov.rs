@@ -8,8 +8,9 @@
 //! Each pixel averages [`AOV_SAMPLES`] camera rays, stratified over the pixel as the
 //! render's box filter places its samples, so that the guides are anti-aliased as the image
 //! is (an aliased guide puts its staircase into a denoised edge), then more where they vary
-//! ([`pixels_to_refine`]): [`AOV_VARYING_SAMPLES`] where a neighbour's features differ,
-//! [`AOV_SILHOUETTE_SAMPLES`] on silhouettes, [`AOV_REFINED_SAMPLES`] on emitters' edges. Their random numbers come from the independent sampler at sample
+//! ([`pixels_to_refine`]): [`AOV_VARYING_SAMPLES`] where its rays disagree or a neighbour
+//! sees another surface, [`AOV_SILHOUETTE_SAMPLES`] on silhouettes, [`AOV_REFINED_SAMPLES`]
+//! on emitters' edges. Their random numbers come from the independent sampler at sample
 //! indices the render never reaches ([`AOV_SAMPLE_INDEX`]), so
 //! the guides' jitter is independent of the image's noise: a denoiser weighting by features
 //! that correlate with the noise it removes would keep part of it (Rousselle et al. 2013
@@ -37,8 +38,8 @@ use crate::scene::FlatScene;
 /// Camera rays per pixel of the first AOV pass, one in each cell of a 2 × 2 grid over the
 /// pixel: where the surface under a pixel is smooth (its features vary at most linearly
 /// across it, which a stratified grid's mean states to a fraction of the step to the next
-/// pixel) four state its mean; where they do not, a neighbour's differ, and the pixel is
-/// refined ([`pixels_to_refine`]).
+/// pixel) four state its mean; where they do not, its own rays disagree or a neighbour sees
+/// another surface, and the pixel is refined ([`pixels_to_refine`]).
 pub const AOV_SAMPLES: u32 = 4;
 /// Rays per pixel where the first pass's features vary across the pixel
 /// ([`pixels_to_refine`]), one in each cell of a 4 × 4 grid: 16 place them about as finely
