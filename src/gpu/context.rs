@@ -199,16 +199,47 @@ pub struct GpuContext {
     /// Errors wgpu reported outside any error scope (kept, then returned by `check`).
     uncaptured: Arc<Mutex<Vec<String>>>,
     /// Each integrator's module and layouts per table forms, made on first use.
-    modules: Mutex<HashMap<(Integrator, UniformTables), Arc<KernelModule>>>,
-    kernels: Mutex<HashMap<KernelKey, Arc<Kernel>>>,
+    modules: BuiltOnce<(Integrator, UniformTables), Arc<KernelModule>>,
+    kernels: BuiltOnce<KernelKey, Arc<Kernel>>,
     /// The light tracer's kernels (`trace_caustics`), by the scene features and table forms
     /// they were built for: built only for scenes whose caustics are light traced.
-    caustic_kernels: Mutex<HashMap<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>>,
+    caustic_kernels: BuiltOnce<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>,
     /// Adaptive sampling's `accumulate_caustic_sums`, keyed as `caustic_kernels`.
-    caustic_sum_kernels: Mutex<HashMap<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>>,
+    caustic_sum_kernels: BuiltOnce<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>,
     /// The AOV passes (`aov` and `aov_refine` in shaders/aov.wgsl) per kernel, built on
     /// first use: a render that writes no AOVs never compiles one.
-    aov_kernels: Mutex<HashMap<KernelKey, AovKernels>>,
+    aov_kernels: BuiltOnce<KernelKey, AovKernels>,
+}
+
+/// Things built on first use and kept, each key built once: a thread that asks for a key
+/// another thread is building waits for that build, while builds of other keys go on beside
+/// it. A kernel's build is single-threaded and takes seconds to a minute on lavapipe, and the
+/// GPU tests ask for dozens from two threads: with one lock over the whole map (as until
+/// 2026-12-07) every build waited for every other, and a CI run whose shader cache starts
+/// empty spent 1,098 s in the GPU tests (`bench/history/lavapipe.md`). wgpu keeps error
+/// scopes per thread, so builds on two threads do not see each other's errors. A build that
+/// fails keeps nothing: the next caller tries again.
+struct BuiltOnce<K, V> {
+    slots: Mutex<HashMap<K, Arc<Mutex<Option<V>>>>>,
+}
+
+impl<K: std::hash::Hash + Eq + Copy, V: Clone> BuiltOnce<K, V> {
+    fn new() -> Self {
+        BuiltOnce { slots: Mutex::new(HashMap::new()) }
+    }
+
+    /// `key`'s value, built by `build` if no caller has built it yet.
+    fn get_or_build(&self, key: K, build: impl FnOnce() -> Result<V>) -> Result<V> {
+        // The map's lock is held only to find the key's slot; the slot's, through the build.
+        let slot = self.slots.lock().unwrap_or_else(|p| p.into_inner()).entry(key).or_default().clone();
+        let mut value = slot.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(v) = value.as_ref() {
+            return Ok(v.clone());
+        }
+        let v = build()?;
+        *value = Some(v.clone());
+        Ok(v)
+    }
 }
 
 /// The override values of the kernel `key` names: its scene features, its traversal's
@@ -285,11 +316,11 @@ impl GpuContext {
             device,
             queue,
             uncaptured,
-            modules: Mutex::new(HashMap::new()),
-            kernels: Mutex::new(HashMap::new()),
-            caustic_kernels: Mutex::new(HashMap::new()),
-            caustic_sum_kernels: Mutex::new(HashMap::new()),
-            aov_kernels: Mutex::new(HashMap::new()),
+            modules: BuiltOnce::new(),
+            kernels: BuiltOnce::new(),
+            caustic_kernels: BuiltOnce::new(),
+            caustic_sum_kernels: BuiltOnce::new(),
+            aov_kernels: BuiltOnce::new(),
         };
         // The path tracer's all-storage module now, so that a kernel the driver rejects
         // fails here.
@@ -305,10 +336,11 @@ impl GpuContext {
                 "--integrator {integrator}: the GPU backend has no kernel for it yet; render it with --backend cpu"
             )));
         }
-        let mut modules = self.modules.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(m) = modules.get(&(integrator, tables)) {
-            return Ok(m.clone());
-        }
+        self.modules.get_or_build((integrator, tables), || self.build_module(integrator, tables))
+    }
+
+    /// Builds `integrator`'s module and layouts for the table forms `tables` ([`Self::module`]).
+    fn build_module(&self, integrator: Integrator, tables: UniformTables) -> Result<Arc<KernelModule>> {
         let device = &self.device;
         let source = shader::kernel_source(integrator, tables);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -357,9 +389,7 @@ impl GpuContext {
             bind_group_layouts: &[Some(&bind_group_layout)],
             immediate_size: 0,
         });
-        let m = Arc::new(KernelModule { module, bind_group_layout, pipeline_layout });
-        modules.insert((integrator, tables), m.clone());
-        Ok(m)
+        Ok(Arc::new(KernelModule { module, bind_group_layout, pipeline_layout }))
     }
 
     /// Does this adapter read small tables faster from uniform buffers than from storage
@@ -403,10 +433,11 @@ impl GpuContext {
 
     /// The kernels for `key`, built on first use and cached.
     pub fn kernel(&self, key: KernelKey) -> Result<Arc<Kernel>> {
-        let mut cache = self.kernels.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(k) = cache.get(&key) {
-            return Ok(k.clone());
-        }
+        self.kernels.get_or_build(key, || self.build_kernel(key))
+    }
+
+    /// Builds the kernels for `key` ([`Self::kernel`]).
+    fn build_kernel(&self, key: KernelKey) -> Result<Arc<Kernel>> {
         let source = self.module(key.integrator, key.tables)?;
         let constants = kernel_constants(key);
         let render_entry = match key.integrator {
@@ -437,7 +468,7 @@ impl GpuContext {
         };
         let first_hit = std::sync::OnceLock::new();
         let ic_first_vertex = std::sync::OnceLock::new();
-        let kernel = Arc::new(Kernel {
+        Ok(Arc::new(Kernel {
             key,
             render,
             first_hit,
@@ -446,9 +477,7 @@ impl GpuContext {
             photon_maps,
             build_seconds,
             source,
-        });
-        cache.insert(key, kernel.clone());
-        Ok(kernel)
+        }))
     }
 
     /// `kernel`'s first-hit pass (`first_hit` in shaders/interaction.wgsl), built on first
@@ -504,36 +533,28 @@ impl GpuContext {
 
     fn light_tracing_kernel(
         &self,
-        cache: &Mutex<HashMap<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>>,
+        cache: &BuiltOnce<(SceneFeatures, UniformTables), Arc<wgpu::ComputePipeline>>,
         entry: &str,
         features: SceneFeatures,
         tables: UniformTables,
     ) -> Result<Arc<wgpu::ComputePipeline>> {
-        let mut cache = cache.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(k) = cache.get(&(features, tables)) {
-            return Ok(k.clone());
-        }
-        // The light tracer is the path tracer's partner: its entry points are in that kernel.
-        let source = self.module(Integrator::Path, tables)?;
-        let (pipeline, _) = self.build_pipeline(&source, entry, &feature_constants(features))?;
-        let pipeline = Arc::new(pipeline);
-        cache.insert((features, tables), pipeline.clone());
-        Ok(pipeline)
+        cache.get_or_build((features, tables), || {
+            // The light tracer is the path tracer's partner: its entry points are in that kernel.
+            let source = self.module(Integrator::Path, tables)?;
+            let (pipeline, _) = self.build_pipeline(&source, entry, &feature_constants(features))?;
+            Ok(Arc::new(pipeline))
+        })
     }
 
     /// The AOV passes of `kernel`'s module, specialised to its features, built on first use
     /// and cached.
     pub fn aov_kernels(&self, kernel: &Kernel) -> Result<AovKernels> {
-        let mut cache = self.aov_kernels.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(k) = cache.get(&kernel.key) {
-            return Ok(k.clone());
-        }
-        let constants = feature_constants(kernel.key.features);
-        let (first, _) = self.build_pipeline(&kernel.source, "aov", &constants)?;
-        let (refine, _) = self.build_pipeline(&kernel.source, "aov_refine", &constants)?;
-        let kernels = AovKernels { first: Arc::new(first), refine: Arc::new(refine) };
-        cache.insert(kernel.key, kernels.clone());
-        Ok(kernels)
+        self.aov_kernels.get_or_build(kernel.key, || {
+            let constants = feature_constants(kernel.key.features);
+            let (first, _) = self.build_pipeline(&kernel.source, "aov", &constants)?;
+            let (refine, _) = self.build_pipeline(&kernel.source, "aov_refine", &constants)?;
+            Ok(AovKernels { first: Arc::new(first), refine: Arc::new(refine) })
+        })
     }
 
     /// Builds entry point `entry` of the kernel module `source` with the override values
@@ -636,5 +657,58 @@ impl GpuContext {
     /// A hardware device, not a software rasteriser such as lavapipe (adapter type CPU).
     pub fn is_hardware(&self) -> bool {
         self.info.device_type != wgpu::DeviceType::Cpu
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicU32, Ordering};
+    use std::sync::mpsc;
+    use std::time::Duration;
+
+    /// Two keys build at the same time: each build waits to hear that the other has begun,
+    /// which it would never hear (and so time out and fail, not hang) were builds serialised.
+    #[test]
+    fn builds_of_different_keys_run_side_by_side() {
+        let cache = BuiltOnce::<u32, u32>::new();
+        let (to_b, from_a) = mpsc::channel();
+        let (to_a, from_b) = mpsc::channel();
+        let build = |me: u32, tell: mpsc::Sender<()>, hear: mpsc::Receiver<()>| {
+            move || {
+                tell.send(()).unwrap();
+                hear.recv_timeout(Duration::from_secs(10))
+                    .map(|_| me * 10)
+                    .map_err(|_| Error::Gpu("the other key's build never began beside this one".into()))
+            }
+        };
+        let (a, b) = std::thread::scope(|s| {
+            let a = s.spawn(|| cache.get_or_build(1, build(1, to_b, from_b)));
+            let b = s.spawn(|| cache.get_or_build(2, build(2, to_a, from_a)));
+            (a.join().unwrap(), b.join().unwrap())
+        });
+        assert_eq!((a.unwrap(), b.unwrap()), (10, 20));
+    }
+
+    /// One key is built once however many threads ask for it; a failed build keeps nothing.
+    #[test]
+    fn a_key_is_built_once_and_a_failure_is_not_kept() {
+        let cache = BuiltOnce::<u32, u32>::new();
+        let builds = AtomicU32::new(0);
+        std::thread::scope(|s| {
+            for _ in 0..4 {
+                s.spawn(|| {
+                    let v = cache.get_or_build(7, || {
+                        builds.fetch_add(1, Ordering::SeqCst);
+                        std::thread::sleep(Duration::from_millis(20));
+                        Ok(70)
+                    });
+                    assert_eq!(v.unwrap(), 70);
+                });
+            }
+        });
+        assert_eq!(builds.load(Ordering::SeqCst), 1);
+        assert!(cache.get_or_build(8, || Err(Error::Gpu("no".into()))).is_err());
+        assert_eq!(cache.get_or_build(8, || Ok(80)).unwrap(), 80);
     }
 }
