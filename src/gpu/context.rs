@@ -213,12 +213,14 @@ pub struct GpuContext {
 
 /// Things built on first use and kept, each key built once: a thread that asks for a key
 /// another thread is building waits for that build, while builds of other keys go on beside
-/// it. A kernel's build is single-threaded and takes seconds to a minute on lavapipe, and the
-/// GPU tests ask for dozens from two threads: with one lock over the whole map (as until
-/// 2026-12-07) every build waited for every other, and a CI run whose shader cache starts
-/// empty spent 1,098 s in the GPU tests (`bench/history/lavapipe.md`). wgpu keeps error
-/// scopes per thread, so builds on two threads do not see each other's errors. A build that
-/// fails keeps nothing: the next caller tries again.
+/// it. A kernel's build is single-threaded and takes seconds to a minute on lavapipe; with
+/// one lock over the whole map (as until 2026-12-07) every build waited for every other, on
+/// any number of cores. On this project's 2-core CI machine it gains little: there the other
+/// test thread's lavapipe dispatches keep the second core busy anyway (the GPU tests with an
+/// empty shader cache took 1,017 s against 1,098 s before, within the VM's spread;
+/// `bench/history/lavapipe.md`). wgpu keeps error scopes per thread, so builds on two
+/// threads do not see each other's errors. A build that fails keeps nothing: the next
+/// caller tries again.
 struct BuiltOnce<K, V> {
     slots: Mutex<HashMap<K, Arc<Mutex<Option<V>>>>>,
 }
