@@ -71,7 +71,18 @@ fi
 
 cargo fmt --check
 cargo clippy --release --all-targets "${feature_args[@]}" -- -D warnings
-cargo test --release "${feature_args[@]}"
+# cargo-nextest runs each test in its own process, all test files' tests in one pool. Under
+# `cargo test` the GPU tests of one file share one device and its one queue, so two test
+# threads' lavapipe dispatches took turns: with an empty shader cache tests/gpu took 1,017 s
+# under `cargo test` and 554 s under nextest on this project's 2-core CI machine
+# (bench/history/lavapipe.md). nextest does not run doctests; `cargo test --doc` does.
+if cargo nextest --version >/dev/null 2>&1; then
+    cargo nextest run --release --no-fail-fast "${feature_args[@]}"
+    cargo test --release --doc "${feature_args[@]}"
+else
+    echo "ci/test.sh: cargo-nextest not found (cargo install cargo-nextest); running cargo test, whose GPU tests take about twice as long" >&2
+    cargo test --release "${feature_args[@]}"
+fi
 
 # The farm driver (farm/pathlight_farm.py) on a local Dask cluster, a worker killed
 # mid-shard. It needs Python 3 with dask.distributed, installed here when missing.

@@ -91,6 +91,26 @@ impl SceneFeatures {
         f
     }
 
+    /// The features of either: a kernel specialised to them renders scenes of both kinds.
+    pub fn union(&self, other: &SceneFeatures) -> SceneFeatures {
+        SceneFeatures {
+            specular: self.specular || other.specular,
+            transmission: self.transmission || other.transmission,
+            volume: self.volume || other.volume,
+            emissive_triangles: self.emissive_triangles || other.emissive_triangles,
+            point_lights: self.point_lights || other.point_lights,
+            spot_lights: self.spot_lights || other.spot_lights,
+            directional_lights: self.directional_lights || other.directional_lights,
+            environment: self.environment || other.environment,
+            textures: self.textures || other.textures,
+            normal_maps: self.normal_maps || other.normal_maps,
+            alpha: self.alpha || other.alpha,
+            clearcoat: self.clearcoat || other.clearcoat,
+            sheen: self.sheen || other.sheen,
+            deep_tree: self.deep_tree || other.deep_tree,
+        }
+    }
+
     /// `(WGSL override name, value)` for each feature, as the kernel declares them.
     pub fn pipeline_constants(&self) -> [(&'static str, bool); 14] {
         [
@@ -124,5 +144,27 @@ impl SceneFeatures {
         } else {
             names.join("+").to_lowercase()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each feature of a union is on exactly where either side has it on.
+    #[test]
+    fn a_union_has_each_feature_of_either() {
+        let a = SceneFeatures { specular: true, textures: true, ..SceneFeatures::default() };
+        let b = SceneFeatures { textures: true, sheen: true, deep_tree: true, ..SceneFeatures::default() };
+        let u = a.union(&b);
+        for ((name, on), ((_, in_a), (_, in_b))) in u
+            .pipeline_constants()
+            .into_iter()
+            .zip(a.pipeline_constants().into_iter().zip(b.pipeline_constants()))
+        {
+            assert_eq!(on, in_a || in_b, "{name}");
+        }
+        assert_eq!(a.union(&SceneFeatures::default()), a);
+        assert_eq!(a.union(&SceneFeatures::ALL), SceneFeatures::ALL);
     }
 }
