@@ -18,7 +18,8 @@ struct DenoiseParams {
 @group(0) @binding(1) var<storage, read> signal_in: array<vec4<f32>>;
 // Unit normal (xyz; zero on a miss) and depth (w; MISS_DEPTH on a miss).
 @group(0) @binding(2) var<storage, read> guide: array<vec4<f32>>;
-// Emission luminance (x), coverage (y), depth gradient (z).
+// Emission luminance (x), coverage (y), depth gradient (z), and 1 in w where the pixel is
+// kept as it is (a miss with negligible noise: `Prepared::aux` in src/denoise/atrous.rs).
 @group(0) @binding(3) var<storage, read> aux: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> signal_out: array<vec4<f32>>;
 
@@ -89,6 +90,12 @@ fn atrous_iteration(@builtin(global_invocation_id) gid: vec3<u32>) {
     let s_p = signal_in[centre];
     let g_p = guide[centre];
     let a_p = aux[centre];
+    if (a_p.w != 0.0) {
+        signal_out[centre] = s_p;
+        return;
+    }
+    // Taps of the other kind (surface or miss) left out, as the CPU twin says why.
+    let p_hit = g_p.w >= 0.0;
     var var_sum = 0.0;
     var var_weight = 0.0;
     for (var dy = -1; dy <= 1; dy++) {
@@ -96,6 +103,9 @@ fn atrous_iteration(@builtin(global_invocation_id) gid: vec3<u32>) {
             let qx = x + dx;
             let qy = y + dy;
             if (qx < 0 || qy < 0 || qx >= w || qy >= h) {
+                continue;
+            }
+            if ((guide[u32(qy * w + qx)].w >= 0.0) != p_hit) {
                 continue;
             }
             let k = gaussian_weight(dx) * gaussian_weight(dy) * 4.0;

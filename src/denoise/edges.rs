@@ -187,12 +187,16 @@ fn regress(input: &DenoiseInput, p: usize, filtered: &[Vec3], filtered_variance:
             let l = luminance(color);
             let weight = 1.0 / (variance.max(EDGE_VARIANCE_FLOOR * (l * l + 1e-2)) as f64);
             let f = features(input, p, q);
+            // Whole rows, though only the lower triangle is kept (the upper one is mirrored
+            // below): a row of fixed length vectorises where a triangle's varying one did
+            // not. Each kept entry is the same product, summed in the same order.
             for i in 0..EDGE_FEATURES {
-                for j in 0..=i {
-                    m[i][j] += weight * f[i] * f[j];
+                let wf = weight * f[i];
+                for j in 0..EDGE_FEATURES {
+                    m[i][j] += wf * f[j];
                 }
                 for c in 0..3 {
-                    b[i][c] += weight * f[i] * color[c] as f64;
+                    b[i][c] += wf * color[c] as f64;
                 }
             }
             weight_sum += weight;

@@ -239,14 +239,22 @@ pub fn srgb_decode(v: f32) -> f32 {
     }
 }
 
+/// [`srgb_decode`] of each 8-bit value v / 255, the same expression evaluated once: a texel
+/// fetch is then a table read, bit for bit what it was. `powf` had taken 16% of the AOV
+/// pass on DamagedHelmet, three of them per texel of a colour texture, four texels per
+/// bilinear lookup (`bench/history/denoising.md`). The WGSL twin keeps `pow`, one
+/// instruction on a GPU.
+static SRGB_DECODED: std::sync::LazyLock<[f32; 256]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|v| srgb_decode(v as f32 / 255.0)));
+
 fn fetch(texels: &[u32], info: &TextureInfo, x: u32, y: u32, srgb: bool) -> Vec4 {
     let t = texels[(info.offset + y * info.width + x) as usize];
-    let c = Vec4::new((t & 255) as f32, ((t >> 8) & 255) as f32, ((t >> 16) & 255) as f32, (t >> 24) as f32)
-        / 255.0;
+    let byte = |k: u32| ((t >> (8 * k)) & 255) as usize;
     if srgb {
-        Vec4::new(srgb_decode(c.x), srgb_decode(c.y), srgb_decode(c.z), c.w)
+        let decoded = &*SRGB_DECODED;
+        Vec4::new(decoded[byte(0)], decoded[byte(1)], decoded[byte(2)], byte(3) as f32 / 255.0)
     } else {
-        c
+        Vec4::new(byte(0) as f32, byte(1) as f32, byte(2) as f32, byte(3) as f32) / 255.0
     }
 }
 

@@ -2,6 +2,15 @@
 
 use super::*;
 
+/// The table holds exactly what decoding each byte as the texel fetch did gives.
+#[test]
+fn the_srgb_table_is_the_transfer_function_bit_for_bit() {
+    for v in 0..256u32 {
+        let c = Vec4::splat(v as f32) / 255.0;
+        assert_eq!(SRGB_DECODED[v as usize].to_bits(), srgb_decode(c.x).to_bits(), "{v}");
+    }
+}
+
 #[test]
 fn wrap_modes_follow_the_spec() {
     let w = 4;
