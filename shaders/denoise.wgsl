@@ -105,11 +105,12 @@ fn atrous_iteration(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (qx < 0 || qy < 0 || qx >= w || qy >= h) {
                 continue;
             }
-            if ((guide[u32(qy * w + qx)].w >= 0.0) != p_hit) {
+            let q = u32(qy * w + qx);
+            if ((guide[q].w >= 0.0) != p_hit) {
                 continue;
             }
             let k = gaussian_weight(dx) * gaussian_weight(dy) * 4.0;
-            var_sum += k * signal_in[u32(qy * w + qx)].w;
+            var_sum += k * signal_in[q].w;
             var_weight += k;
         }
     }

@@ -68,6 +68,13 @@ pub fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
+/// The variance of the luminance of a colour whose channels have variances `variance` and
+/// are independent.
+pub fn luminance_variance(variance: Vec3) -> f32 {
+    let weights = Vec3::new(0.2126, 0.7152, 0.0722);
+    (weights * weights).dot(variance)
+}
+
 /// What the iterations read and write, per pixel.
 #[derive(Clone, Debug)]
 pub struct Prepared {
@@ -91,12 +98,10 @@ pub fn prepare(input: &DenoiseInput) -> Prepared {
     let aovs = input.aovs;
     let modulation: Vec<Vec3> =
         aovs.albedo.iter().map(|a| a.max(Vec3::splat(ALBEDO_DEMODULATION_MIN))).collect();
-    let weights = Vec3::new(0.2126, 0.7152, 0.0722);
     let signal = (0..w * h)
         .map(|i| {
             let m = modulation[i];
-            let var = input.variance[i] / (m * m);
-            (input.color[i] / m).extend((weights * weights).dot(var))
+            (input.color[i] / m).extend(luminance_variance(input.variance[i] / (m * m)))
         })
         .collect();
     let guide: Vec<Vec4> = (0..w * h)
@@ -137,9 +142,10 @@ pub fn prepare(input: &DenoiseInput) -> Prepared {
 pub const KEPT_MISS_RELATIVE_VARIANCE: f32 = 1e-4;
 
 /// Is the pixel of AOV depth `depth` (+∞ where no AOV ray met a surface), colour `color` and
-/// variance `variance` kept as it is by every iteration? Only a miss can be: the edge-stopping functions give a tap between a
-/// pixel that sees a surface and one that does not weight 0, so misses are only ever mixed
-/// with misses, and keeping some of them changes no other pixel's output. A miss sees the
+/// variance `variance` kept as it is by every iteration? Only a miss can be: no pixel that
+/// sees a surface reads one that does not (the edge-stopping functions give such a tap
+/// weight 0, and the variance prefilter leaves it out), so keeping misses changes no
+/// surface pixel's output. A miss sees the
 /// environment (or black) straight through the pixel, noisy only by where the pixel's
 /// samples fall on the map: once that noise is negligible in the relMSE (below
 /// [`KEPT_MISS_RELATIVE_VARIANCE`]) filtering only blurs the map. On DamagedHelmet, whose
@@ -148,9 +154,8 @@ pub const KEPT_MISS_RELATIVE_VARIANCE: f32 = 1e-4;
 /// alpha-blended surface all of whose AOV rays passed through) is noisy, and is filtered
 /// with the misses around it as before.
 pub fn is_kept(depth: f32, color: Vec3, variance: Vec3) -> bool {
-    let weights = Vec3::new(0.2126, 0.7152, 0.0722);
     let l = luminance(color);
-    !depth.is_finite() && (weights * weights).dot(variance) < KEPT_MISS_RELATIVE_VARIANCE * (l * l + 1e-2)
+    !depth.is_finite() && luminance_variance(variance) < KEPT_MISS_RELATIVE_VARIANCE * (l * l + 1e-2)
 }
 
 /// Step 3 (module documentation): the filtered signal times the albedo.

@@ -175,7 +175,7 @@ fn regress(input: &DenoiseInput, p: usize, filtered: &[Vec3], filtered_variance:
             }
             let q = (qy * w + qx) as usize;
             let (color, variance) = if q == p {
-                let raw_var = Vec3::new(0.2126, 0.7152, 0.0722).powf(2.0).dot(input.variance[p]);
+                let raw_var = super::atrous::luminance_variance(input.variance[p]);
                 (input.color[p], raw_var)
             } else {
                 (filtered[q], filtered_variance[q])
